@@ -1,0 +1,1 @@
+//! Reference finite elements and the isoparametric map.

@@ -1,0 +1,1 @@
+//! fosls inspect: what a VTU file holds.

@@ -1,0 +1,17 @@
+//! fosls: audit finite element solutions of elastic contact problems with the First-Order
+//! System Least-Squares functional (see `DESIGN.md`).
+//!
+//! The modules follow the data flow:
+//! read (VTU, scene) → mesh and fields → topology → elements and quadrature → … → report.
+
+pub mod element;
+pub mod error;
+pub mod expr;
+pub mod inspect;
+pub mod mesh;
+pub mod quadrature;
+pub mod read;
+pub mod topology;
+pub mod write;
+
+pub use error::{Error, Result};

@@ -1,0 +1,1 @@
+//! Quadrature rules on the reference triangle and the reference edge.

@@ -1,0 +1,1 @@
+//! Binary payloads of VTU DataArrays: base64, compression, byte order, scalar types.

@@ -1,0 +1,1 @@
+//! Scene file (TOML), DESIGN.md §7.

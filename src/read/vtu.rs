@@ -1,0 +1,1 @@
+//! VTU (XML UnstructuredGrid) reader.

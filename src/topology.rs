@@ -1,0 +1,1 @@
+//! Mesh topology: edges, boundary edges, cell-edge maps, orientation.
