@@ -1,1 +1,1180 @@
-//! VTU (XML UnstructuredGrid) reader.
+//! VTU (VTK XML UnstructuredGrid) reader.
+//!
+//! Reads every layout VTK, meshio and NGSolve write (DESIGN.md §9): DataArray formats `ascii`,
+//! `binary` (inline base64) and `appended` (raw or base64), UInt32/UInt64 headers, both byte
+//! orders, zlib/LZ4/LZMA compression, any numeric type, and several `<Piece>` elements, which
+//! are merged. The result is the file as written ([`VtuFile`]); turning it into a mesh is
+//! [`crate::mesh`]'s job.
+//!
+//! The XML part is parsed with quick-xml up to `<AppendedData`, whose raw bytes are not XML.
+//! All arrays are then decoded in parallel ([`super::decode`]).
+
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+
+use quick_xml::events::{BytesStart, Event};
+use rayon::prelude::*;
+
+use super::decode::{self, Compressor, Layout, Scalar};
+use crate::error::{Error, Result};
+
+/// VTK cell type numbers that fosls reads.
+pub mod cell_type {
+    pub const VERTEX: u8 = 1;
+    pub const LINE: u8 = 3;
+    pub const TRIANGLE: u8 = 5;
+    pub const QUADRATIC_EDGE: u8 = 21;
+    pub const QUADRATIC_TRIANGLE: u8 = 22;
+
+    /// Nodes per cell of a supported type, `None` for any other type.
+    pub fn nodes(t: u8) -> Option<usize> {
+        match t {
+            VERTEX => Some(1),
+            LINE => Some(2),
+            TRIANGLE | QUADRATIC_EDGE => Some(3),
+            QUADRATIC_TRIANGLE => Some(6),
+            _ => None,
+        }
+    }
+
+    /// The VTK name of a cell type, for messages.
+    pub fn name(t: u8) -> &'static str {
+        match t {
+            1 => "vertex",
+            2 => "poly-vertex",
+            3 => "line",
+            4 => "poly-line",
+            5 => "triangle",
+            6 => "triangle strip",
+            7 => "polygon",
+            8 => "pixel",
+            9 => "quad",
+            10 => "tetra",
+            11 => "voxel",
+            12 => "hexahedron",
+            13 => "wedge",
+            14 => "pyramid",
+            21 => "quadratic edge",
+            22 => "quadratic triangle",
+            23 => "quadratic quad",
+            24 => "quadratic tetra",
+            25 => "quadratic hexahedron",
+            _ => "unknown",
+        }
+    }
+}
+
+/// One named point or cell array, values converted to `f64` (exact for every type except
+/// 64-bit integers beyond 2^53, which no field or tag needs).
+#[derive(Clone, Debug)]
+pub struct DataArray {
+    pub name: String,
+    /// The type in the file.
+    pub scalar: Scalar,
+    pub components: usize,
+    /// `ComponentName{i}` attributes, empty when absent.
+    pub component_names: Vec<String>,
+    /// Tuple-major: value `c` of tuple `i` is `values[i * components + c]`.
+    pub values: Vec<f64>,
+}
+
+impl DataArray {
+    /// Number of tuples.
+    pub fn tuples(&self) -> usize {
+        self.values.len() / self.components.max(1)
+    }
+}
+
+/// How the file was written, for `inspect`.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FileFormat {
+    /// Data formats found: "ascii", "binary", "appended raw", "appended base64".
+    pub data_formats: Vec<String>,
+    pub compressor: String,
+    pub header_type: String,
+    pub byte_order: String,
+    pub pieces: usize,
+    /// Type of the point coordinates in the file.
+    pub points_type: String,
+}
+
+/// A VTU file as written: points, VTK cells, point and cell arrays (pieces merged).
+#[derive(Clone, Debug)]
+pub struct VtuFile {
+    pub path: PathBuf,
+    pub points: Vec<[f64; 3]>,
+    /// Components of the `Points` array in the file (3, or 2 for some writers).
+    pub point_components: usize,
+    /// VTK cell type of each cell.
+    pub types: Vec<u8>,
+    /// Cell `c` has nodes `connectivity[offsets[c]..offsets[c + 1]]` (`offsets[0] = 0`).
+    pub offsets: Vec<usize>,
+    pub connectivity: Vec<u32>,
+    pub point_data: Vec<DataArray>,
+    pub cell_data: Vec<DataArray>,
+    pub format: FileFormat,
+}
+
+impl VtuFile {
+    /// Number of cells of any type.
+    pub fn cell_count(&self) -> usize {
+        self.types.len()
+    }
+
+    /// Nodes of cell `c`.
+    pub fn cell(&self, c: usize) -> &[u32] {
+        &self.connectivity[self.offsets[c]..self.offsets[c + 1]]
+    }
+}
+
+/// Reads and decodes a VTU file.
+pub fn read_vtu(path: &Path) -> Result<VtuFile> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_vtu(path, &bytes)
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    Points,
+    Connectivity,
+    Offsets,
+    Types,
+    PointData,
+    CellData,
+}
+
+#[derive(Debug)]
+enum Source<'a> {
+    Ascii(Cow<'a, [u8]>),
+    Binary(Cow<'a, [u8]>),
+    Appended(usize),
+}
+
+#[derive(Debug)]
+struct ArraySpec<'a> {
+    piece: usize,
+    role: Role,
+    name: String,
+    scalar: Scalar,
+    components: usize,
+    component_names: Vec<String>,
+    source: Source<'a>,
+}
+
+impl ArraySpec<'_> {
+    fn place(&self, pieces: usize) -> String {
+        let what = match self.role {
+            Role::Points => "Points array".to_string(),
+            Role::Connectivity => "Cells array \"connectivity\"".to_string(),
+            Role::Offsets => "Cells array \"offsets\"".to_string(),
+            Role::Types => "Cells array \"types\"".to_string(),
+            Role::PointData => format!("point array \"{}\"", self.name),
+            Role::CellData => format!("cell array \"{}\"", self.name),
+        };
+        if pieces > 1 {
+            format!("Piece {}, {what}", self.piece)
+        } else {
+            what
+        }
+    }
+}
+
+#[derive(Debug, Default)]
+struct PieceSpec {
+    points: usize,
+    cells: usize,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Tag {
+    File,
+    Grid,
+    Piece,
+    Points,
+    Cells,
+    PointData,
+    CellData,
+    DataArray,
+    Other,
+}
+
+/// The appended-data section: its bytes (after the `_` marker) and its encoding.
+struct Appended<'a> {
+    data: &'a [u8],
+    base64: bool,
+    /// Sorted offsets of all appended arrays, to delimit base64 chunks.
+    offsets: Vec<usize>,
+}
+
+fn attr_map(e: &BytesStart<'_>) -> std::result::Result<Vec<(String, String)>, String> {
+    let mut out = Vec::new();
+    for a in e.attributes() {
+        let a = a.map_err(|err| format!("malformed attribute ({err})"))?;
+        let key = a.key.as_ref().to_string();
+        let value = a
+            .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+            .map_err(|err| format!("malformed attribute {key} ({err})"))?
+            .into_owned();
+        out.push((key, value));
+    }
+    Ok(out)
+}
+
+fn get<'m>(attrs: &'m [(String, String)], key: &str) -> Option<&'m str> {
+    attrs
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.as_str())
+}
+
+fn text_bytes(t: Cow<'_, str>) -> Cow<'_, [u8]> {
+    match t {
+        Cow::Borrowed(s) => Cow::Borrowed(s.as_bytes()),
+        Cow::Owned(s) => Cow::Owned(s.into_bytes()),
+    }
+}
+
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
+}
+
+/// Parses the bytes of a VTU file (see [`read_vtu`]).
+pub fn parse_vtu(path: &Path, bytes: &[u8]) -> Result<VtuFile> {
+    let err = |place: &str, problem: String| Error::input(path, place, problem);
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(err("file", "is empty".into()));
+    }
+
+    // The XML part ends where appended raw data begins.
+    let (xml, appended) = match find(bytes, b"<AppendedData") {
+        None => (bytes, None),
+        Some(start) => {
+            let tag_end = bytes[start..]
+                .iter()
+                .position(|&c| c == b'>')
+                .map(|p| start + p)
+                .ok_or_else(|| err("<AppendedData>", "start tag is cut short".into()))?;
+            let tag = &bytes[start..tag_end];
+            let base64 = if find(tag, b"encoding=\"base64\"").is_some()
+                || find(tag, b"encoding='base64'").is_some()
+            {
+                true
+            } else if find(tag, b"encoding=\"raw\"").is_some()
+                || find(tag, b"encoding='raw'").is_some()
+            {
+                false
+            } else {
+                return Err(err(
+                    "<AppendedData>",
+                    "missing or unknown encoding (expected \"raw\" or \"base64\")".into(),
+                ));
+            };
+            let underscore = bytes[tag_end..]
+                .iter()
+                .position(|&c| c == b'_')
+                .map(|p| tag_end + p + 1)
+                .ok_or_else(|| {
+                    err(
+                        "<AppendedData>",
+                        "no '_' marker before the data (truncated file?)".into(),
+                    )
+                })?;
+            let end = bytes
+                .windows(b"</AppendedData>".len())
+                .rposition(|w| w == b"</AppendedData>")
+                .filter(|&e| e >= underscore)
+                .ok_or_else(|| {
+                    err(
+                        "<AppendedData>",
+                        "no closing </AppendedData> tag (truncated file?)".into(),
+                    )
+                })?;
+            let mut data = &bytes[underscore..end];
+            if base64 {
+                while let Some((last, rest)) = data.split_last() {
+                    if last.is_ascii_whitespace() {
+                        data = rest;
+                    } else {
+                        break;
+                    }
+                }
+            }
+            (
+                &bytes[..start],
+                Some(Appended {
+                    data,
+                    base64,
+                    offsets: Vec::new(),
+                }),
+            )
+        }
+    };
+
+    let mut reader = quick_xml::Reader::from_reader(xml);
+    let mut stack: Vec<Tag> = Vec::new();
+    let mut seen_root = false;
+    let mut layout = Layout {
+        header_u64: false,
+        big_endian: false,
+        compressor: Compressor::None,
+    };
+    let mut format = FileFormat {
+        compressor: "none".into(),
+        header_type: "UInt32".into(),
+        byte_order: "LittleEndian".into(),
+        ..FileFormat::default()
+    };
+    let mut pieces: Vec<PieceSpec> = Vec::new();
+    let mut specs: Vec<ArraySpec> = Vec::new();
+    // The DataArray being read: its attributes and text segments.
+    let mut current: Option<(Tag, Vec<(String, String)>, Vec<Cow<[u8]>>)> = None;
+
+    loop {
+        let pos = reader.buffer_position();
+        let event = reader.read_event().map_err(|e| {
+            err(
+                &format!("byte {}", reader.error_position()),
+                format!("not well-formed XML ({e})"),
+            )
+        })?;
+        let (start, empty) = match &event {
+            Event::Start(e) => (Some(e.clone()), false),
+            Event::Empty(e) => (Some(e.clone()), true),
+            _ => (None, false),
+        };
+        if let Some(e) = start {
+            let name = e.name();
+            let name = name.as_ref();
+            let parent = stack.last().copied();
+            let tag = match (parent, name) {
+                (None, "VTKFile") => Tag::File,
+                (None, other) => {
+                    return Err(err(
+                        "root element",
+                        format!("is <{}>, not <VTKFile>: not a VTK XML file", other),
+                    ));
+                }
+                (Some(Tag::File), "UnstructuredGrid") => Tag::Grid,
+                (
+                    Some(Tag::File),
+                    "PolyData" | "ImageData" | "RectilinearGrid" | "StructuredGrid",
+                ) => {
+                    return Err(err(
+                        "<VTKFile>",
+                        format!(
+                            "holds <{}>; fosls reads UnstructuredGrid (.vtu) files",
+                            name
+                        ),
+                    ));
+                }
+                (Some(Tag::Grid), "Piece") => Tag::Piece,
+                (Some(Tag::Piece), "Points") => Tag::Points,
+                (Some(Tag::Piece), "Cells") => Tag::Cells,
+                (Some(Tag::Piece), "PointData") => Tag::PointData,
+                (Some(Tag::Piece), "CellData") => Tag::CellData,
+                (Some(Tag::Points | Tag::Cells | Tag::PointData | Tag::CellData), "DataArray") => {
+                    Tag::DataArray
+                }
+                _ => Tag::Other,
+            };
+            let attrs =
+                attr_map(&e).map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
+            match tag {
+                Tag::File => {
+                    seen_root = true;
+                    if let Some(t) = get(&attrs, "type")
+                        && t != "UnstructuredGrid"
+                    {
+                        return Err(err(
+                            "<VTKFile>",
+                            format!("type is \"{t}\"; fosls reads UnstructuredGrid (.vtu) files"),
+                        ));
+                    }
+                    match get(&attrs, "byte_order").unwrap_or("LittleEndian") {
+                        "LittleEndian" => {}
+                        "BigEndian" => {
+                            layout.big_endian = true;
+                            format.byte_order = "BigEndian".into();
+                        }
+                        other => {
+                            return Err(err(
+                                "<VTKFile> byte_order",
+                                format!("\"{other}\" is neither LittleEndian nor BigEndian"),
+                            ));
+                        }
+                    }
+                    match get(&attrs, "header_type").unwrap_or("UInt32") {
+                        "UInt32" => {}
+                        "UInt64" => {
+                            layout.header_u64 = true;
+                            format.header_type = "UInt64".into();
+                        }
+                        other => {
+                            return Err(err(
+                                "<VTKFile> header_type",
+                                format!("\"{other}\" is neither UInt32 nor UInt64"),
+                            ));
+                        }
+                    }
+                    let c = get(&attrs, "compressor").unwrap_or("");
+                    layout.compressor = Compressor::parse(c).ok_or_else(|| {
+                        err(
+                            "<VTKFile> compressor",
+                            format!(
+                                "\"{c}\" is not supported (vtkZLibDataCompressor, \
+                                 vtkLZ4DataCompressor, vtkLZMADataCompressor)"
+                            ),
+                        )
+                    })?;
+                    format.compressor = layout.compressor.name().into();
+                }
+                Tag::Piece => {
+                    let count = |key: &str| -> Result<usize> {
+                        let v = get(&attrs, key).ok_or_else(|| {
+                            err(
+                                &format!("Piece {}", pieces.len()),
+                                format!("missing attribute {key}"),
+                            )
+                        })?;
+                        v.trim().parse::<usize>().map_err(|_| {
+                            err(
+                                &format!("Piece {} {key}", pieces.len()),
+                                format!("\"{v}\" is not a non-negative integer"),
+                            )
+                        })
+                    };
+                    pieces.push(PieceSpec {
+                        points: count("NumberOfPoints")?,
+                        cells: count("NumberOfCells")?,
+                    });
+                }
+                Tag::DataArray => {
+                    let section = parent.unwrap_or(Tag::Other);
+                    if empty {
+                        let spec = finish_array(path, pieces.len(), section, attrs, Vec::new())?;
+                        if let Some(s) = spec {
+                            specs.push(s);
+                        }
+                    } else {
+                        current = Some((section, attrs, Vec::new()));
+                    }
+                }
+                _ => {}
+            }
+            if !empty {
+                stack.push(tag);
+            }
+            continue;
+        }
+        match event {
+            Event::Text(t) => {
+                if stack.last() == Some(&Tag::DataArray)
+                    && let Some((_, _, texts)) = current.as_mut()
+                {
+                    texts.push(text_bytes(t.into_inner()));
+                }
+            }
+            Event::CData(t) => {
+                if stack.last() == Some(&Tag::DataArray)
+                    && let Some((_, _, texts)) = current.as_mut()
+                {
+                    texts.push(text_bytes(t.into_inner()));
+                }
+            }
+            Event::End(_) => {
+                if stack.pop() == Some(Tag::DataArray)
+                    && let Some((section, attrs, texts)) = current.take()
+                    && let Some(s) = finish_array(path, pieces.len(), section, attrs, texts)?
+                {
+                    specs.push(s);
+                }
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+
+    if !seen_root {
+        return Err(err(
+            "file",
+            "is not a VTK XML file (no <VTKFile> element)".into(),
+        ));
+    }
+    let expected_depth = if appended.is_some() { 1 } else { 0 };
+    if stack.len() > expected_depth {
+        let inside = match stack.last() {
+            Some(Tag::DataArray) => "<DataArray>",
+            Some(Tag::Piece) => "<Piece>",
+            Some(Tag::Points) => "<Points>",
+            Some(Tag::Cells) => "<Cells>",
+            Some(Tag::PointData) => "<PointData>",
+            Some(Tag::CellData) => "<CellData>",
+            Some(Tag::Grid) => "<UnstructuredGrid>",
+            _ => "<VTKFile>",
+        };
+        return Err(err(
+            "file",
+            format!("ends inside {inside} (truncated file?)"),
+        ));
+    }
+    if pieces.is_empty() {
+        return Err(err("<UnstructuredGrid>", "has no <Piece>".into()));
+    }
+
+    let mut appended = appended;
+    let mut formats: Vec<&str> = Vec::new();
+    for s in &specs {
+        let f = match s.source {
+            Source::Ascii(_) => "ascii",
+            Source::Binary(_) => "binary",
+            Source::Appended(off) => {
+                let Some(a) = appended.as_mut() else {
+                    return Err(err(
+                        &s.place(pieces.len()),
+                        "format is \"appended\" but the file has no <AppendedData> section".into(),
+                    ));
+                };
+                a.offsets.push(off);
+                if a.base64 {
+                    "appended base64"
+                } else {
+                    "appended raw"
+                }
+            }
+        };
+        if !formats.contains(&f) {
+            formats.push(f);
+        }
+    }
+    if let Some(a) = appended.as_mut() {
+        a.offsets.sort_unstable();
+        a.offsets.dedup();
+    }
+    format.data_formats = formats.iter().map(|s| s.to_string()).collect();
+    format.pieces = pieces.len();
+
+    // Every piece needs points and the three cell arrays.
+    for (p, piece) in pieces.iter().enumerate() {
+        let place = if pieces.len() > 1 {
+            format!("Piece {p}")
+        } else {
+            "Piece".to_string()
+        };
+        for (role, what) in [
+            (Role::Points, "a Points array"),
+            (Role::Connectivity, "a Cells array \"connectivity\""),
+            (Role::Offsets, "a Cells array \"offsets\""),
+            (Role::Types, "a Cells array \"types\""),
+        ] {
+            let n = specs
+                .iter()
+                .filter(|s| s.piece == p && s.role == role)
+                .count();
+            let needed = match role {
+                Role::Points => piece.points > 0,
+                _ => piece.cells > 0,
+            };
+            if n == 0 && needed {
+                return Err(err(&place, format!("has no {what}")));
+            }
+            if n > 1 {
+                return Err(err(&place, format!("has more than one {what}")));
+            }
+        }
+    }
+
+    // Decode all arrays in parallel.
+    let npieces = pieces.len();
+    let decoded: Vec<Decoded> = specs
+        .par_iter()
+        .map(|s| {
+            let piece = &pieces[s.piece];
+            let tuples = match s.role {
+                Role::Points | Role::PointData => Some(piece.points),
+                Role::Offsets | Role::Types | Role::CellData => Some(piece.cells),
+                Role::Connectivity => None,
+            };
+            decode_array(s, tuples, &layout, appended.as_ref())
+                .map_err(|problem| err(&s.place(npieces), problem))
+        })
+        .collect::<Result<_>>()?;
+
+    assemble(path, &pieces, &specs, decoded, format)
+}
+
+enum Decoded {
+    Float(Vec<f64>),
+    Int(Vec<i64>),
+}
+
+/// Turns a DataArray's attributes and text into a spec; `None` for arrays fosls does not use
+/// (polyhedron faces).
+fn finish_array<'a>(
+    path: &Path,
+    piece_count: usize,
+    section: Tag,
+    attrs: Vec<(String, String)>,
+    texts: Vec<Cow<'a, [u8]>>,
+) -> Result<Option<ArraySpec<'a>>> {
+    let piece = piece_count.saturating_sub(1);
+    let name = get(&attrs, "Name").unwrap_or("").to_string();
+    let role = match section {
+        Tag::Points => Role::Points,
+        Tag::Cells => match name.as_str() {
+            "connectivity" => Role::Connectivity,
+            "offsets" => Role::Offsets,
+            "types" => Role::Types,
+            _ => return Ok(None),
+        },
+        Tag::PointData => Role::PointData,
+        _ => Role::CellData,
+    };
+    let mut spec = ArraySpec {
+        piece,
+        role,
+        name,
+        scalar: Scalar::Float64,
+        components: 1,
+        component_names: Vec::new(),
+        source: Source::Appended(0),
+    };
+    let place = spec.place(piece_count);
+    let err = |problem: String| Error::input(path, &place, problem);
+    if matches!(role, Role::PointData | Role::CellData) && spec.name.is_empty() {
+        return Err(err("has no Name attribute".into()));
+    }
+    let ty = get(&attrs, "type").ok_or_else(|| err("missing attribute type".into()))?;
+    spec.scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type \"{ty}\"")))?;
+    if let Some(c) = get(&attrs, "NumberOfComponents") {
+        spec.components = c
+            .trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|&c| (1..=1024).contains(&c))
+            .ok_or_else(|| {
+                err(format!(
+                    "NumberOfComponents \"{c}\" is not an integer in 1..=1024"
+                ))
+            })?;
+    }
+    for i in 0..spec.components {
+        match get(&attrs, &format!("ComponentName{i}")) {
+            Some(n) => spec.component_names.push(n.to_string()),
+            None => break,
+        }
+    }
+    if spec.component_names.len() != spec.components {
+        spec.component_names.clear();
+    }
+    let text = || -> Cow<'a, [u8]> {
+        let mut texts = texts;
+        if texts.len() == 1 {
+            texts.pop().unwrap_or_default()
+        } else {
+            Cow::Owned(texts.concat())
+        }
+    };
+    spec.source = match get(&attrs, "format").unwrap_or("ascii") {
+        "ascii" => Source::Ascii(text()),
+        "binary" => Source::Binary(text()),
+        "appended" => {
+            let off =
+                get(&attrs, "offset").ok_or_else(|| err("appended array without offset".into()))?;
+            Source::Appended(
+                off.trim()
+                    .parse::<usize>()
+                    .map_err(|_| err(format!("offset \"{off}\" is not a non-negative integer")))?,
+            )
+        }
+        other => {
+            return Err(err(format!(
+                "format \"{other}\" is not ascii, binary or appended"
+            )));
+        }
+    };
+    Ok(Some(spec))
+}
+
+fn decode_array(
+    spec: &ArraySpec,
+    tuples: Option<usize>,
+    layout: &Layout,
+    appended: Option<&Appended>,
+) -> decode::DecodeResult<Decoded> {
+    let integer = matches!(spec.role, Role::Connectivity | Role::Offsets | Role::Types);
+    if integer && !spec.scalar.is_integer() {
+        return Err(format!(
+            "has type {}, expected an integer type",
+            spec.scalar.name()
+        ));
+    }
+    let expected = match tuples {
+        Some(t) => Some(
+            t.checked_mul(spec.components)
+                .filter(|&n| n.checked_mul(spec.scalar.size()).is_some())
+                .ok_or_else(|| "declared size overflows".to_string())?,
+        ),
+        None => None,
+    };
+    let expected_bytes = expected.map(|n| (n * spec.scalar.size()) as u64);
+    let bytes: Cow<[u8]> = match &spec.source {
+        Source::Ascii(text) => {
+            let out = if integer {
+                Decoded::Int(decode::parse_ascii(text, spec.scalar, expected)?)
+            } else {
+                Decoded::Float(decode::parse_ascii(text, spec.scalar, expected)?)
+            };
+            return check_count(out, expected, spec.components);
+        }
+        Source::Binary(text) => {
+            let raw = decode::base64_decode(text)?;
+            Cow::Owned(decode::payload(&raw, layout, expected_bytes)?.into_owned())
+        }
+        Source::Appended(off) => {
+            let a = appended.ok_or("no appended data")?;
+            if *off >= a.data.len() {
+                return Err(format!(
+                    "appended offset {off} is past the end of the appended data ({} bytes)",
+                    a.data.len()
+                ));
+            }
+            if a.base64 {
+                let next = a
+                    .offsets
+                    .iter()
+                    .find(|&&o| o > *off)
+                    .copied()
+                    .unwrap_or(a.data.len())
+                    .min(a.data.len());
+                let raw = decode::base64_decode(&a.data[*off..next])?;
+                Cow::Owned(decode::payload(&raw, layout, expected_bytes)?.into_owned())
+            } else {
+                decode::payload(&a.data[*off..], layout, expected_bytes)?
+            }
+        }
+    };
+    let out = if integer {
+        Decoded::Int(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+    } else {
+        Decoded::Float(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+    };
+    check_count(out, expected, spec.components)
+}
+
+fn check_count(
+    out: Decoded,
+    expected: Option<usize>,
+    components: usize,
+) -> decode::DecodeResult<Decoded> {
+    let n = match &out {
+        Decoded::Float(v) => v.len(),
+        Decoded::Int(v) => v.len(),
+    };
+    match expected {
+        Some(e) if e != n => Err(format!(
+            "holds {n} values, but {components} components × {} tuples need {e}",
+            e / components.max(1)
+        )),
+        None if n % components != 0 => Err(format!(
+            "holds {n} values, not a multiple of its {components} components"
+        )),
+        _ => Ok(out),
+    }
+}
+
+fn assemble(
+    path: &Path,
+    pieces: &[PieceSpec],
+    specs: &[ArraySpec],
+    decoded: Vec<Decoded>,
+    mut format: FileFormat,
+) -> Result<VtuFile> {
+    let err = |place: &str, problem: String| Error::input(path, place, problem);
+    let total_points: usize = pieces.iter().map(|p| p.points).sum();
+    if total_points > u32::MAX as usize {
+        return Err(err(
+            "Piece",
+            format!("{total_points} points is more than fosls handles (2^32)"),
+        ));
+    }
+    let mut file = VtuFile {
+        path: path.to_path_buf(),
+        points: Vec::with_capacity(total_points),
+        point_components: 3,
+        types: Vec::new(),
+        offsets: vec![0],
+        connectivity: Vec::new(),
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
+        format: FileFormat::default(),
+    };
+    let mut decoded: Vec<Option<Decoded>> = decoded.into_iter().map(Some).collect();
+    let mut take = |p: usize, role: Role| -> Option<(usize, Decoded)> {
+        let i = specs.iter().position(|s| s.piece == p && s.role == role)?;
+        decoded[i].take().map(|d| (i, d))
+    };
+    let npieces = pieces.len();
+    let mut point_base = 0usize;
+    for (p, piece) in pieces.iter().enumerate() {
+        if let Some((i, Decoded::Float(v))) = take(p, Role::Points) {
+            let s = &specs[i];
+            if !(s.components == 2 || s.components == 3) {
+                return Err(err(
+                    &s.place(npieces),
+                    format!("has {} components; points need 3 (or 2)", s.components),
+                ));
+            }
+            file.point_components = s.components;
+            format.points_type = s.scalar.name().into();
+            for (k, c) in v.chunks_exact(s.components).enumerate() {
+                let x = [c[0], c[1], if s.components == 3 { c[2] } else { 0.0 }];
+                if !x.iter().all(|v| v.is_finite()) {
+                    return Err(err(
+                        &s.place(npieces),
+                        format!(
+                            "point {} has a non-finite coordinate ({}, {}, {})",
+                            point_base + k,
+                            x[0],
+                            x[1],
+                            x[2]
+                        ),
+                    ));
+                }
+                file.points.push(x);
+            }
+        }
+        if piece.cells > 0 {
+            let (oi, Decoded::Int(offsets)) =
+                take(p, Role::Offsets).ok_or_else(|| err("Cells", "no offsets".into()))?
+            else {
+                return Err(err("Cells", "offsets are not integers".into()));
+            };
+            let (ci, Decoded::Int(conn)) = take(p, Role::Connectivity)
+                .ok_or_else(|| err("Cells", "no connectivity".into()))?
+            else {
+                return Err(err("Cells", "connectivity is not integer".into()));
+            };
+            let (ti, Decoded::Int(types)) =
+                take(p, Role::Types).ok_or_else(|| err("Cells", "no types".into()))?
+            else {
+                return Err(err("Cells", "types are not integers".into()));
+            };
+            let oplace = specs[oi].place(npieces);
+            let cplace = specs[ci].place(npieces);
+            let tplace = specs[ti].place(npieces);
+            let conn_base = file.connectivity.len();
+            let mut prev = 0i64;
+            for (c, &o) in offsets.iter().enumerate() {
+                if o < prev || o > conn.len() as i64 {
+                    return Err(err(
+                        &oplace,
+                        format!(
+                            "offset {o} of cell {c} is {} (connectivity has {} entries)",
+                            if o < prev {
+                                "smaller than the one before"
+                            } else {
+                                "past the end of the connectivity"
+                            },
+                            conn.len()
+                        ),
+                    ));
+                }
+                let t = types[c];
+                let cell = file.types.len();
+                let kind = u8::try_from(t).ok();
+                let Some(nodes) = kind.and_then(cell_type::nodes) else {
+                    return Err(err(
+                        &tplace,
+                        format!(
+                            "cell {cell} has unsupported VTK cell type {t} ({}); fosls reads \
+                             vertices (1), lines (3), triangles (5), quadratic edges (21) and \
+                             quadratic triangles (22)",
+                            cell_type::name(u8::try_from(t).unwrap_or(0))
+                        ),
+                    ));
+                };
+                if (o - prev) as usize != nodes {
+                    return Err(err(
+                        &oplace,
+                        format!(
+                            "cell {cell} ({}) has {} nodes, expected {nodes}",
+                            cell_type::name(t as u8),
+                            o - prev
+                        ),
+                    ));
+                }
+                file.types.push(t as u8);
+                file.offsets.push(conn_base + o as usize);
+                prev = o;
+            }
+            if prev as usize != conn.len() {
+                return Err(err(
+                    &cplace,
+                    format!("has {} entries but the offsets end at {prev}", conn.len()),
+                ));
+            }
+            for (k, &v) in conn.iter().enumerate() {
+                if v < 0 || v as usize >= piece.points {
+                    return Err(err(
+                        &cplace,
+                        format!(
+                            "entry {k} refers to point {v}, but the piece has {} points",
+                            piece.points
+                        ),
+                    ));
+                }
+                file.connectivity.push((point_base + v as usize) as u32);
+            }
+        }
+        point_base += piece.points;
+    }
+
+    // Point and cell arrays: the first piece sets names and components, the others must match.
+    for role in [Role::PointData, Role::CellData] {
+        let mut merged: Vec<DataArray> = Vec::new();
+        for p in 0..npieces {
+            let mine: Vec<usize> = (0..specs.len())
+                .filter(|&i| specs[i].piece == p && specs[i].role == role)
+                .collect();
+            if p > 0 && mine.len() != merged.len() {
+                return Err(err(
+                    &format!("Piece {p}"),
+                    format!(
+                        "has {} {} arrays, piece 0 has {}",
+                        mine.len(),
+                        if role == Role::PointData {
+                            "point"
+                        } else {
+                            "cell"
+                        },
+                        merged.len()
+                    ),
+                ));
+            }
+            for i in mine {
+                let s = &specs[i];
+                let Some(Decoded::Float(values)) = decoded[i].take() else {
+                    continue;
+                };
+                if p == 0 {
+                    if merged.iter().any(|a| a.name == s.name) {
+                        return Err(err(&s.place(npieces), "appears twice".into()));
+                    }
+                    merged.push(DataArray {
+                        name: s.name.clone(),
+                        scalar: s.scalar,
+                        components: s.components,
+                        component_names: s.component_names.clone(),
+                        values,
+                    });
+                } else {
+                    let Some(a) = merged.iter_mut().find(|a| a.name == s.name) else {
+                        return Err(err(&s.place(npieces), "is not in piece 0".into()));
+                    };
+                    if a.components != s.components {
+                        return Err(err(
+                            &s.place(npieces),
+                            format!(
+                                "has {} components, {} in piece 0",
+                                s.components, a.components
+                            ),
+                        ));
+                    }
+                    a.values.extend_from_slice(&values);
+                }
+            }
+        }
+        match role {
+            Role::PointData => file.point_data = merged,
+            _ => file.cell_data = merged,
+        }
+    }
+    file.format = format;
+    Ok(file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<VtuFile> {
+        parse_vtu(Path::new("t.vtu"), text.as_bytes())
+    }
+
+    const ASCII: &str = r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid>
+<Piece NumberOfPoints="4" NumberOfCells="3">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">
+0 0 0  1 0 0  0 1 0  1 1 0
+</DataArray></Points>
+<Cells>
+<DataArray type="Int64" Name="connectivity" format="ascii">0 1 2 1 3 2 0 1</DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii">3 6 8</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">5 5 3</DataArray>
+</Cells>
+<PointData><DataArray type="Float32" Name="u" NumberOfComponents="2" ComponentName0="ux" ComponentName1="uy" format="ascii">
+0 0 1 0 0 1 1 1</DataArray>
+<DataArray type="Float64" Name="p" format="ascii">1 2 3 4</DataArray></PointData>
+<CellData><DataArray type="Int32" Name="tag" format="ascii">0 0 7</DataArray></CellData>
+</Piece></UnstructuredGrid></VTKFile>
+"#;
+
+    #[test]
+    fn reads_an_ascii_file() {
+        let f = parse(ASCII).unwrap();
+        assert_eq!(f.points.len(), 4);
+        assert_eq!(f.types, vec![5, 5, 3]);
+        assert_eq!(f.cell(1), &[1, 3, 2]);
+        assert_eq!(f.cell(2), &[0, 1]);
+        assert_eq!(f.point_data[0].name, "u");
+        assert_eq!(f.point_data[0].components, 2);
+        assert_eq!(f.point_data[0].component_names, vec!["ux", "uy"]);
+        assert_eq!(f.point_data[1].components, 1);
+        assert_eq!(f.cell_data[0].values, vec![0.0, 0.0, 7.0]);
+        assert_eq!(f.format.data_formats, vec!["ascii"]);
+    }
+
+    #[test]
+    fn wrong_component_count_is_named() {
+        let bad = ASCII.replace("0 0 1 0 0 1 1 1</DataArray>", "0 0 1 0 0 1 1</DataArray>");
+        let e = parse(&bad).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "t.vtu: point array \"u\": holds 7 values, but 2 components × 4 tuples need 8"
+        );
+    }
+
+    #[test]
+    fn unknown_cell_type_is_named() {
+        let bad = ASCII.replace(">5 5 3<", ">5 9 3<");
+        let e = parse(&bad).unwrap_err().to_string();
+        assert!(
+            e.starts_with(
+                "t.vtu: Cells array \"types\": cell 1 has unsupported VTK cell type 9 (quad)"
+            ),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn truncated_xml_is_named() {
+        let cut = &ASCII[..ASCII.find("<CellData>").unwrap()];
+        let e = parse(cut).unwrap_err().to_string();
+        assert_eq!(e, "t.vtu: file: ends inside <Piece> (truncated file?)");
+    }
+
+    #[test]
+    fn not_xml_and_empty() {
+        assert_eq!(parse("").unwrap_err().to_string(), "t.vtu: file: is empty");
+        let e = parse("hello world").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "t.vtu: file: is not a VTK XML file (no <VTKFile> element)"
+        );
+        let e = parse("<html><body/></html>").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "t.vtu: root element: is <html>, not <VTKFile>: not a VTK XML file"
+        );
+    }
+
+    #[test]
+    fn connectivity_out_of_range() {
+        let bad = ASCII.replace(">0 1 2 1 3 2 0 1<", ">0 1 2 1 4 2 0 1<");
+        let e = parse(&bad).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "t.vtu: Cells array \"connectivity\": entry 4 refers to point 4, but the piece has 4 points"
+        );
+    }
+
+    /// Appended raw data, zlib compressed, UInt64 header, big endian: built by hand.
+    #[test]
+    fn reads_appended_raw_compressed_big_endian() {
+        use std::io::Write;
+        fn block(raw: &[u8]) -> Vec<u8> {
+            let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+            z.write_all(raw).unwrap();
+            let c = z.finish().unwrap();
+            let mut out = Vec::new();
+            for v in [1u64, raw.len() as u64, raw.len() as u64, c.len() as u64] {
+                out.extend_from_slice(&v.to_be_bytes());
+            }
+            out.extend_from_slice(&c);
+            out
+        }
+        let pts: Vec<u8> = [0.0f64, 0., 0., 1., 0., 0., 0., 1., 0.]
+            .iter()
+            .flat_map(|v| v.to_be_bytes())
+            .collect();
+        let conn: Vec<u8> = [0i32, 1, 2].iter().flat_map(|v| v.to_be_bytes()).collect();
+        let offs: Vec<u8> = 3i32.to_be_bytes().to_vec();
+        let types = vec![5u8];
+        let mut data = Vec::new();
+        let mut offsets = Vec::new();
+        for a in [&pts, &conn, &offs, &types] {
+            offsets.push(data.len());
+            data.extend_from_slice(&block(a));
+        }
+        let file = |points_offset: usize| {
+            let head = format!(
+                r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="BigEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<UnstructuredGrid><Piece NumberOfPoints="3" NumberOfCells="1">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="appended" offset="{}"/></Points>
+<Cells><DataArray type="Int32" Name="connectivity" format="appended" offset="{}"/>
+<DataArray type="Int32" Name="offsets" format="appended" offset="{}"/>
+<DataArray type="UInt8" Name="types" format="appended" offset="{}"/></Cells>
+</Piece></UnstructuredGrid>
+<AppendedData encoding="raw">
+_"#,
+                points_offset, offsets[1], offsets[2], offsets[3]
+            );
+            let mut bytes = head.into_bytes();
+            bytes.extend_from_slice(&data);
+            bytes.extend_from_slice(b"\n</AppendedData></VTKFile>\n");
+            bytes
+        };
+        let f = parse_vtu(Path::new("t.vtu"), &file(offsets[0])).unwrap();
+        assert_eq!(f.points[1], [1.0, 0.0, 0.0]);
+        assert_eq!(f.cell(0), &[0, 1, 2]);
+        assert_eq!(f.format.data_formats, vec!["appended raw"]);
+        assert_eq!(f.format.byte_order, "BigEndian");
+
+        let e = parse_vtu(Path::new("t.vtu"), &file(999_999))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            format!(
+                "t.vtu: Points array: appended offset 999999 is past the end of the appended data ({} bytes)",
+                data.len() + 1
+            )
+        );
+    }
+
+    #[test]
+    fn several_pieces_are_merged() {
+        let piece = |off: &str| {
+            format!(
+                r#"<Piece NumberOfPoints="3" NumberOfCells="1">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{off} 0 0 1 0 0 0 1 0</DataArray></Points>
+<Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2</DataArray>
+<DataArray type="Int32" Name="offsets" format="ascii">3</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">5</DataArray></Cells>
+<PointData><DataArray type="Float64" Name="s" format="ascii">1 2 3</DataArray></PointData>
+</Piece>"#
+            )
+        };
+        let text = format!(
+            "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid>{}{}</UnstructuredGrid></VTKFile>",
+            piece("0"),
+            piece("5")
+        );
+        let f = parse(&text).unwrap();
+        assert_eq!(f.points.len(), 6);
+        assert_eq!(f.cell(1), &[3, 4, 5]);
+        assert_eq!(f.point_data[0].values, vec![1., 2., 3., 1., 2., 3.]);
+        assert_eq!(f.format.pieces, 2);
+    }
+}
