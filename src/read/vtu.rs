@@ -125,6 +125,27 @@ impl VtuFile {
     pub fn cell(&self, c: usize) -> &[u32] {
         &self.connectivity[self.offsets[c]..self.offsets[c + 1]]
     }
+
+    /// A file made in memory from points and `(VTK type, nodes)` cells, without arrays.
+    pub fn from_cells(path: &Path, points: Vec<[f64; 3]>, cells: &[(u8, Vec<u32>)]) -> VtuFile {
+        let mut offsets = vec![0];
+        let mut connectivity = Vec::new();
+        for (_, nodes) in cells {
+            connectivity.extend_from_slice(nodes);
+            offsets.push(connectivity.len());
+        }
+        VtuFile {
+            path: path.to_path_buf(),
+            points,
+            point_components: 3,
+            types: cells.iter().map(|c| c.0).collect(),
+            offsets,
+            connectivity,
+            point_data: Vec::new(),
+            cell_data: Vec::new(),
+            format: FileFormat::default(),
+        }
+    }
 }
 
 /// Reads and decodes a VTU file.
