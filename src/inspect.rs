@@ -1,1 +1,308 @@
-//! fosls inspect: what a VTU file holds.
+//! `fosls inspect`: what a VTU file holds, for a user about to write a scene (DESIGN.md §7).
+//!
+//! Cells by type, points, every array with its range and non-finite count, candidate
+//! boundary-tag arrays with the edges each tag selects, whether the mesh is exploded or curved,
+//! and the bounding box.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::mesh::{Dataset, Merge};
+use crate::read::vtu::{DataArray, FileFormat, VtuFile, cell_type};
+use crate::topology::{self, Topology};
+
+/// Range and health of one array.
+#[derive(Clone, Debug, Serialize)]
+pub struct ArraySummary {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub scalar: String,
+    pub components: usize,
+    pub component_names: Vec<String>,
+    /// Per component, over finite values (null when there are none).
+    pub min: Vec<Option<f64>>,
+    pub max: Vec<Option<f64>>,
+    pub nan: usize,
+    pub infinite: usize,
+}
+
+/// Edges selected by one value of a tag array.
+#[derive(Clone, Debug, Serialize)]
+pub struct TagCount {
+    pub value: i64,
+    pub line_cells: usize,
+    /// Sum of the straight lengths of those lines.
+    pub length: f64,
+}
+
+/// An integer cell array on the line cells, usable as `[boundaries] tag_array`.
+#[derive(Clone, Debug, Serialize)]
+pub struct TagArray {
+    pub name: String,
+    pub values: Vec<TagCount>,
+}
+
+/// Everything `inspect` reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub file: String,
+    pub format: FileFormat,
+    pub points_in_file: usize,
+    pub mesh_points: usize,
+    /// "triangle (5)" → count, for every VTK cell type present.
+    pub cells_by_type: BTreeMap<String, usize>,
+    pub degree: usize,
+    pub curved_cells: usize,
+    pub exploded: Option<Merge>,
+    pub reoriented: bool,
+    /// [xmin, ymin, xmax, ymax].
+    pub bounding_box: [f64; 4],
+    pub edges: usize,
+    pub boundary_edges: usize,
+    /// Boundary edges covered by no line cell (traction-free unless a `where` selects them).
+    pub boundary_edges_without_line: usize,
+    pub interior_lines: Vec<usize>,
+    pub point_arrays: Vec<ArraySummary>,
+    pub cell_arrays: Vec<ArraySummary>,
+    pub tag_arrays: Vec<TagArray>,
+}
+
+fn summarize(a: &DataArray) -> ArraySummary {
+    let c = a.components.max(1);
+    let mut min = vec![None::<f64>; c];
+    let mut max = vec![None::<f64>; c];
+    let (mut nan, mut infinite) = (0, 0);
+    for (i, &v) in a.values.iter().enumerate() {
+        if v.is_nan() {
+            nan += 1;
+        } else if v.is_infinite() {
+            infinite += 1;
+        } else {
+            let k = i % c;
+            min[k] = Some(min[k].map_or(v, |m| m.min(v)));
+            max[k] = Some(max[k].map_or(v, |m| m.max(v)));
+        }
+    }
+    ArraySummary {
+        name: a.name.clone(),
+        scalar: a.scalar.name().into(),
+        components: a.components,
+        component_names: a.component_names.clone(),
+        min,
+        max,
+        nan,
+        infinite,
+    }
+}
+
+/// Builds the summary from the file as read and the dataset built from it.
+pub fn summary(file: &VtuFile, data: &Dataset, topo: &Topology) -> Summary {
+    let mut cells_by_type = BTreeMap::new();
+    for &t in &file.types {
+        *cells_by_type
+            .entry(format!("{} ({t})", cell_type::name(t)))
+            .or_insert(0) += 1;
+    }
+    let mesh = &data.mesh;
+    let mut tag_arrays = Vec::new();
+    if !mesh.lines.is_empty() {
+        for a in &data.line_data {
+            if a.components != 1 || a.values.iter().any(|v| !v.is_finite() || v.fract() != 0.0) {
+                continue;
+            }
+            let mut counts: BTreeMap<i64, (usize, f64)> = BTreeMap::new();
+            for (l, &v) in a.values.iter().enumerate() {
+                let [p, q, _] = mesh.lines[l];
+                let (p, q) = (mesh.points[p as usize], mesh.points[q as usize]);
+                let e = counts.entry(v as i64).or_insert((0, 0.0));
+                e.0 += 1;
+                e.1 += (p[0] - q[0]).hypot(p[1] - q[1]);
+            }
+            if counts.len() <= 64 {
+                tag_arrays.push(TagArray {
+                    name: a.name.clone(),
+                    values: counts
+                        .into_iter()
+                        .map(|(value, (line_cells, length))| TagCount {
+                            value,
+                            line_cells,
+                            length,
+                        })
+                        .collect(),
+                });
+            }
+        }
+    }
+    let mut covered = vec![false; topo.edges.len()];
+    for &e in &topo.line_edge {
+        covered[e as usize] = true;
+    }
+    Summary {
+        file: file.path.display().to_string(),
+        format: file.format.clone(),
+        points_in_file: file.points.len(),
+        mesh_points: mesh.points.len(),
+        cells_by_type,
+        degree: mesh.degree,
+        curved_cells: data.report.curved_cells,
+        exploded: data.report.merge.clone(),
+        reoriented: data.report.reoriented,
+        bounding_box: mesh.bounding_box(),
+        edges: topo.edges.len(),
+        boundary_edges: topo.boundary_edges.len(),
+        boundary_edges_without_line: topo
+            .boundary_edges
+            .iter()
+            .filter(|&&e| !covered[e as usize])
+            .count(),
+        interior_lines: topology::interior_lines(data, topo),
+        point_arrays: file.point_data.iter().map(summarize).collect(),
+        cell_arrays: file.cell_data.iter().map(summarize).collect(),
+        tag_arrays,
+    }
+}
+
+fn range(s: &ArraySummary) -> String {
+    (0..s.components)
+        .map(|k| match (s.min[k], s.max[k]) {
+            (Some(a), Some(b)) => format!("[{a:.6e}, {b:.6e}]"),
+            _ => "[no finite values]".into(),
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The summary as text for the terminal.
+pub fn render(s: &Summary) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "{}", s.file);
+    let f = &s.format;
+    let _ = writeln!(
+        o,
+        "  format      {} | compressor {} | header {} | {} | {} piece(s) | points {}",
+        f.data_formats.join(", "),
+        f.compressor,
+        f.header_type,
+        f.byte_order,
+        f.pieces,
+        f.points_type
+    );
+    let _ = writeln!(
+        o,
+        "  points      {} in file, {} in the mesh",
+        s.points_in_file, s.mesh_points
+    );
+    for (t, n) in &s.cells_by_type {
+        let _ = writeln!(o, "  cells       {n:>9} {t}");
+    }
+    let _ = writeln!(
+        o,
+        "  mesh        P{} triangles, {} curved; {} edges, {} on the boundary ({} without a line cell)",
+        s.degree, s.curved_cells, s.edges, s.boundary_edges, s.boundary_edges_without_line
+    );
+    let b = s.bounding_box;
+    let _ = writeln!(
+        o,
+        "  bounds      x in [{}, {}], y in [{}, {}]",
+        b[0], b[2], b[1], b[3]
+    );
+    match &s.exploded {
+        Some(m) => {
+            let _ = writeln!(
+                o,
+                "  {}: {} node copies merged into {} nodes",
+                if m.exploded {
+                    "exploded    yes"
+                } else {
+                    "exploded    no, but pieces share interface nodes"
+                },
+                m.points_in_file,
+                m.points_merged
+            );
+            for j in &m.jumps {
+                let _ = writeln!(
+                    o,
+                    "              \"{}\": max jump between copies {:.3e} ({:.3e} relative){}",
+                    j.array,
+                    j.max,
+                    j.relative,
+                    if j.max > 0.0 { ", discontinuous" } else { "" }
+                );
+            }
+        }
+        None => {
+            let _ = writeln!(o, "  exploded    no");
+        }
+    }
+    if s.reoriented {
+        let _ = writeln!(
+            o,
+            "  note        all cells were clockwise; reordered counter-clockwise"
+        );
+    }
+    if !s.interior_lines.is_empty() {
+        let _ = writeln!(
+            o,
+            "  note        {} line cells lie on interior edges: {}",
+            s.interior_lines.len(),
+            crate::mesh::list_indices(&s.interior_lines)
+        );
+    }
+    for (title, arrays) in [
+        ("point data", &s.point_arrays),
+        ("cell data", &s.cell_arrays),
+    ] {
+        for a in arrays.iter() {
+            let names = if a.component_names.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", a.component_names.join(","))
+            };
+            let bad = if a.nan + a.infinite > 0 {
+                format!("  NaN {} Inf {}", a.nan, a.infinite)
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                o,
+                "  {title:<11} \"{}\" {} x{}{names} {}{bad}",
+                a.name,
+                a.scalar,
+                a.components,
+                range(a)
+            );
+        }
+    }
+    for t in &s.tag_arrays {
+        let vals = t
+            .values
+            .iter()
+            .map(|v| {
+                format!(
+                    "{}: {} edges, length {:.6}",
+                    v.value, v.line_cells, v.length
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ");
+        let _ = writeln!(o, "  tags        \"{}\" on line cells: {vals}", t.name);
+    }
+    o
+}
+
+/// The first array holding NaN or infinite values, as `(place, problem)`.
+pub fn first_nonfinite(s: &Summary) -> Option<(String, String)> {
+    let point = s.point_arrays.iter().map(|a| ("point", a));
+    let cell = s.cell_arrays.iter().map(|a| ("cell", a));
+    point
+        .chain(cell)
+        .find(|(_, a)| a.nan + a.infinite > 0)
+        .map(|(kind, a)| {
+            (
+                format!("{kind} array \"{}\"", a.name),
+                format!("{} NaN and {} infinite values", a.nan, a.infinite),
+            )
+        })
+}

@@ -93,6 +93,8 @@ fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
 /// How node copies of an exploded mesh were merged.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Merge {
+    /// Every cell had its own node copies (else: copies at the interfaces of pieces).
+    pub exploded: bool,
     pub points_in_file: usize,
     pub points_merged: usize,
     /// Per point array: the largest difference between copies of one node (any component),
@@ -236,7 +238,7 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
         line_cell,
     };
     let mut point_data = file.point_data;
-    if let Some(merge) = merge_exploded(&mut mesh, &mut point_data) {
+    if let Some(merge) = merge_copies(&mut mesh, &mut point_data, &file.piece_points) {
         report.merge = Some(merge);
     }
 
@@ -426,9 +428,15 @@ fn p2_vertex_jacobians(x: &[[f64; 2]; 6]) -> [f64; 3] {
     ]
 }
 
-/// Merges node copies of an exploded mesh (no node shared by two triangles, yet coincident
-/// nodes) and averages point data over copies, recording the largest jump per array.
-fn merge_exploded(mesh: &mut Mesh, point_data: &mut [DataArray]) -> Option<Merge> {
+/// Merges node copies and averages point data over copies, recording the largest jump per
+/// array. Copies arise in exploded meshes (no node shared by two triangles), where any two
+/// coincident nodes are merged, and in files of several pieces, where coincident nodes of
+/// different pieces are. Coincident nodes of one piece of a conforming mesh (a slit) are kept.
+fn merge_copies(
+    mesh: &mut Mesh,
+    point_data: &mut [DataArray],
+    piece_points: &[usize],
+) -> Option<Merge> {
     let np = mesh.points.len();
     if mesh.triangles.len() < 2 {
         return None;
@@ -439,9 +447,22 @@ fn merge_exploded(mesh: &mut Mesh, point_data: &mut [DataArray]) -> Option<Merge
             users[v as usize] = users[v as usize].saturating_add(1);
         }
     }
-    if users.iter().any(|&u| u > 1) {
+    let exploded = users.iter().all(|&u| u <= 1);
+    if !exploded && piece_points.len() < 2 {
         return None;
     }
+    // Nodes of one group are never merged with each other.
+    let group: Vec<u32> = if exploded {
+        (0..np as u32).collect()
+    } else {
+        let mut g = vec![0u32; np];
+        for (k, w) in piece_points.windows(2).enumerate() {
+            g[w[0]..w[1]].fill(k as u32);
+        }
+        let last = piece_points[piece_points.len() - 1];
+        g[last..].fill(piece_points.len() as u32 - 1);
+        g
+    };
 
     // Local size: the shortest vertex-to-vertex edge of the cell holding the node.
     let mut size = vec![f64::INFINITY; np];
@@ -502,7 +523,7 @@ fn merge_exploded(mesh: &mut Mesh, point_data: &mut [DataArray]) -> Option<Merge
                     if k2 != nk {
                         break;
                     }
-                    if j <= i {
+                    if j <= i || group[i as usize] == group[j as usize] {
                         continue;
                     }
                     let t = tol[i as usize].min(tol[j as usize]);
@@ -587,6 +608,7 @@ fn merge_exploded(mesh: &mut Mesh, point_data: &mut [DataArray]) -> Option<Merge
     }
     mesh.points = points;
     Some(Merge {
+        exploded,
         points_in_file: np,
         points_merged: count as usize,
         jumps,

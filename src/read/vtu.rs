@@ -112,6 +112,8 @@ pub struct VtuFile {
     pub connectivity: Vec<u32>,
     pub point_data: Vec<DataArray>,
     pub cell_data: Vec<DataArray>,
+    /// Index of the first point of each `<Piece>`: pieces duplicate their interface points.
+    pub piece_points: Vec<usize>,
     pub format: FileFormat,
 }
 
@@ -143,6 +145,7 @@ impl VtuFile {
             connectivity,
             point_data: Vec::new(),
             cell_data: Vec::new(),
+            piece_points: vec![0],
             format: FileFormat::default(),
         }
     }
@@ -827,6 +830,7 @@ fn assemble(
         connectivity: Vec::new(),
         point_data: Vec::new(),
         cell_data: Vec::new(),
+        piece_points: Vec::new(),
         format: FileFormat::default(),
     };
     let mut decoded: Vec<Option<Decoded>> = decoded.into_iter().map(Some).collect();
@@ -837,6 +841,7 @@ fn assemble(
     let npieces = pieces.len();
     let mut point_base = 0usize;
     for (p, piece) in pieces.iter().enumerate() {
+        file.piece_points.push(point_base);
         if let Some((i, Decoded::Float(v))) = take(p, Role::Points) {
             let s = &specs[i];
             if !(s.components == 2 || s.components == 3) {
