@@ -580,7 +580,14 @@ fn merge_copies(
         let mut max_abs = 0.0f64;
         for n in 0..count as usize {
             for k in 0..c {
-                sum[n * c + k] /= copies[n] as f64;
+                // Equal copies keep their value exactly (a mean of three equal values
+                // need not round back to it).
+                let i = n * c + k;
+                sum[i] = if lo[i] == hi[i] {
+                    lo[i]
+                } else {
+                    sum[i] / copies[n] as f64
+                };
                 max_jump = max_jump.max(hi[n * c + k] - lo[n * c + k]);
                 max_abs = max_abs.max(lo[n * c + k].abs()).max(hi[n * c + k].abs());
             }
