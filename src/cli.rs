@@ -76,11 +76,13 @@ fn inspect_file(file: &Path, json: Option<&Path>, quiet: bool) -> anyhow::Result
     if !quiet && !to_stdout {
         print!("{}", inspect::render(&summary));
     }
-    if let Some(j) = json {
-        write_json(j, &summary)?;
-    }
+    // Non-finite values make the file unusable: the text summary shows where they are, the
+    // exit status says so, and no JSON is written for a failed run.
     if let Some((place, problem)) = inspect::first_nonfinite(&summary) {
         return Err(Error::input(file, place, problem).into());
+    }
+    if let Some(j) = json {
+        write_json(j, &summary)?;
     }
     Ok(ExitCode::SUCCESS)
 }
