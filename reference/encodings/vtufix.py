@@ -670,6 +670,8 @@ def write_vtk(g, path, **opts):
         raise RuntimeError(f"vtkXMLUnstructuredGridWriter failed on {path}")
     if src is not None and sorted(src.served) != list(range(o["pieces"])):
         raise RuntimeError(f"piece source served {src.served}")
+    if len(xml_pieces(path)) != o["pieces"]:
+        raise RuntimeError(f"{path}: {len(xml_pieces(path))} <Piece> elements, wanted {o['pieces']}")
 
 
 # ---------------------------------------------------------------------------

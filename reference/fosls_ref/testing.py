@@ -56,7 +56,7 @@ class Poly2:
         terms = []
         for (i, j), v in np.ndenumerate(self.c):
             if v != 0:
-                terms.append(f"({v!r})*x^{i}*y^{j}")
+                terms.append(f"({float(v)!r})*x^{i}*y^{j}")
         return " + ".join(terms) if terms else "0"
 
 

@@ -129,21 +129,13 @@ def solve_contact(dsc: Discretisation, K, top_nodes, uD, contact_nodes, friction
         vD = np.concatenate([vtop, -gap0[act], np.zeros(stick.sum())])
         u = np.zeros(n)
         u[D] = vD
-        # rows: slip x-rows replaced by  (K u)_x - s F (K u)_y = 0
-        A = Kc.copy().tolil() if False else Kc
+        # slip nodes: x-row replaced by  (K u - F)_x - s F (K u - F)_y = 0,  i.e. lambda_t = s F lambda_n
+        A, rhs = Kc, F
         if friction > 0 and slip.any():
             s = np.where(state[slip] == 2, 1.0, -1.0)
-            R = sp.identity(n, format="csr")
-            rows = dx[slip]
-            # build modified matrix M = P K where P replaces row x_i by e_xi - s F e_yi
-            Pm = sp.lil_matrix((n, n))
-            Pm.setdiag(1.0)
-            for r_, yrow, si in zip(rows, dy[slip], s):
-                Pm[r_, yrow] = -si * friction
-            A = (Pm.tocsr() @ Kc).tocsr()
-            rhs = Pm.tocsr() @ F
-        else:
-            rhs = F
+            Pm = sp.identity(n, format="csr") + sp.csr_matrix((-s * friction, (dx[slip], dy[slip])), shape=(n, n))
+            A = (Pm @ Kc).tocsr()
+            rhs = Pm @ F
         I = np.setdiff1d(np.arange(n), D)
         AII = A[I][:, I].tocsc()
         b = rhs[I] - A[I][:, D] @ vD
@@ -172,7 +164,7 @@ def solve_contact(dsc: Discretisation, K, top_nodes, uD, contact_nodes, friction
             z = lt - c * ut
             ncp_t = np.abs(lt - np.clip(z, -bound, bound)).max() / scale
         else:
-            ncp_t = np.abs(lt).max() / scale if False else 0.0
+            ncp_t = 0.0
         lin = np.abs((A @ u - rhs)[I]).max() / max(np.abs(r[Dtop]).max(), 1e-300)
         history.append(dict(it=it, active=int(act.sum()), stick=int(stick.sum()), changed=changed,
                             ncp_normal=float(ncp_n), ncp_tangential=float(ncp_t), linear=float(lin)))
