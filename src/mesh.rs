@@ -339,9 +339,8 @@ fn check_geometry(
         // det J of the P2 map is smallest for moderately curved cells.
         let mut inverted = Vec::new();
         let mut curved = 0;
-        for t in 0..n {
+        for (t, &h) in scales.iter().enumerate() {
             let x = mesh.coords(t);
-            let h = scales[t];
             let off = |k: usize, a: usize, b: usize| {
                 dist(x[k], [(x[a][0] + x[b][0]) / 2.0, (x[a][1] + x[b][1]) / 2.0])
             };
@@ -567,8 +566,8 @@ fn merge_copies(
         let mut sum = vec![0.0; count as usize * c];
         let mut lo = vec![f64::INFINITY; count as usize * c];
         let mut hi = vec![f64::NEG_INFINITY; count as usize * c];
-        for i in 0..np {
-            let n = new_index[i] as usize;
+        for (i, &n) in new_index.iter().enumerate() {
+            let n = n as usize;
             for k in 0..c {
                 let v = a.values[i * c + k];
                 sum[n * c + k] += v;

@@ -10,8 +10,12 @@ use fosls::read::vtu::{DataArray, VtuFile};
 use fosls::write::{Placement, to_bytes};
 
 fn fixture(name: &str) -> Vec<u8> {
-    std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/encodings").join(name))
-        .unwrap()
+    std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fixtures/encodings")
+            .join(name),
+    )
+    .unwrap()
 }
 
 /// Runs `fosls inspect` on `bytes` saved as `name`; returns the single stderr line after
@@ -74,7 +78,10 @@ fn not_xml() {
         "file: is not a VTK XML file (no <VTKFile> element)"
     );
     assert_eq!(
-        refused("poly.vtu", b"<VTKFile type=\"PolyData\"><PolyData/></VTKFile>"),
+        refused(
+            "poly.vtu",
+            b"<VTKFile type=\"PolyData\"><PolyData/></VTKFile>"
+        ),
         "<VTKFile>: type is \"PolyData\"; fosls reads UnstructuredGrid (.vtu) files"
     );
 }
@@ -186,12 +193,18 @@ fn mismatched_array_sizes_and_offsets_past_the_end() {
     // Offsets that run past the connectivity.
     let start = text.find("Name=\"offsets\"").unwrap();
     let body = text[start..].find('>').unwrap() + start + 1;
-    let first: String = text[body..].trim_start().chars().take_while(|c| c.is_ascii_digit()).collect();
+    let first: String = text[body..]
+        .trim_start()
+        .chars()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
     let at = body + text[body..].find(&first).unwrap();
     let bad = format!("{}999999{}", &text[..at], &text[at + first.len()..]);
     let line = refused("offsets.vtu", bad.as_bytes());
     assert!(
-        line.starts_with("Cells array \"offsets\": offset 999999 of cell 0 is past the end of the connectivity"),
+        line.starts_with(
+            "Cells array \"offsets\": offset 999999 of cell 0 is past the end of the connectivity"
+        ),
         "{line}"
     );
     // A cell array with one tuple too few.
@@ -337,7 +350,13 @@ fn refuses_to_overwrite_its_input() {
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(
         String::from_utf8_lossy(&out.stderr).trim_end(),
-        format!("error: {}: refusing to overwrite the input file", path.display())
+        format!(
+            "error: {}: refusing to overwrite the input file",
+            path.display()
+        )
     );
-    assert_eq!(std::fs::read(&path).unwrap(), fixture("p1_meshio_binary.vtu"));
+    assert_eq!(
+        std::fs::read(&path).unwrap(),
+        fixture("p1_meshio_binary.vtu")
+    );
 }

@@ -203,27 +203,26 @@ def contact_frame(sol, b, cell, local, s):
 def _contact_edge(sol, b, cell, local, tol_abs, npts):
     """Integrals over one contact edge with splitting at all kinks / indicator changes.
 
-    Split points: roots of tau_n, v_t, tau_t, v_n - g, tau_n + tol (smooth), then on each piece
-    roots of |tau_t| - F|tau_n|, |tau_t| - F|tau_n| + tol and the friction integrand.
+    Split points: roots of tau_n, v_t, tau_t, v_n - g (smooth on the edge), then on each piece
+    roots of |tau_t| - F|tau_n| and of the friction integrand (smooth on a piece). Every
+    integrand and indicator is smooth / sign-constant on the resulting pieces; each piece gets an
+    npts-point Gauss-Legendre rule.
     """
     F = b.friction
     q = lambda s, key: contact_frame(sol, b, cell, local, s)[key]
     pts = [0.0, 1.0]
     smooth = [lambda s: q(s, "tn"), lambda s: q(s, "tt"), lambda s: q(s, "vt"),
               lambda s: np.nan_to_num(q(s, "gap_res"), neginf=-1e300)]
-    if tol_abs > 0:
-        smooth.append(lambda s: q(s, "tn") + tol_abs)
     for fn in smooth:
         pts.extend(roots(fn, 0.0, 1.0))
     pts = np.unique(np.array(pts))
 
-    def cone_f(s, shift):
+    def cone_f(s):
         d = contact_frame(sol, b, cell, local, s)
-        return np.abs(d["tt"]) - F * np.abs(d["tn"]) + shift
+        return np.abs(d["tt"]) - F * np.abs(d["tn"])
 
-    piecewise = [lambda s: cone_f(s, 0.0)]
+    piecewise = [cone_f]
     if F > 0:
-        piecewise.append(lambda s: cone_f(s, tol_abs))
         piecewise.append(lambda s: q(s, "fric"))
     extra = []
     for a, bb in zip(pts[:-1], pts[1:]):
@@ -234,6 +233,7 @@ def _contact_edge(sol, b, cell, local, tol_abs, npts):
     acc = dict.fromkeys(["length", "comp", "comp_neg", "fric", "fric_neg", "normal_force",
                          "tangential_force", "active", "active_strict", "stick", "stick_strict",
                          "pen2", "tension2", "cone2"], 0.0)
+    info = []
     for a, bb in zip(pts[:-1], pts[1:]):
         if not bb > a:
             continue
@@ -252,19 +252,43 @@ def _contact_edge(sol, b, cell, local, tol_abs, npts):
         acc["pen2"] += float(np.sum(d["pen"][:-1] ** 2 * dl))
         acc["tension2"] += float(np.sum(d["tension"][:-1] ** 2 * dl))
         acc["cone2"] += float(np.sum(d["cone"][:-1] ** 2 * dl))
-        # indicators are constant on the piece: evaluate at its midpoint
-        tn_m, tt_m = d["tn"][-1], d["tt"][-1]
-        if tn_m < -tol_abs:
-            acc["active"] += L
-            if abs(tt_m) < F * abs(tn_m) - tol_abs:
-                acc["stick"] += L
-        if tn_m < 0:
-            acc["active_strict"] += L
-            if abs(tt_m) < F * abs(tn_m):
-                acc["stick_strict"] += L
+        # indicator functions are sign-constant on a piece: record the midpoint value and the
+        # minimum over the piece's sample points (for the significance test below)
+        tn_all = d["tn"]
+        h_all = np.abs(d["tt"]) - F * np.abs(d["tn"])
+        info.append((L, tn_all[-1], float(tn_all.min()), h_all[-1], float(h_all.min())))
+    # active: tau_n < 0, stick: |tau_t| < F|tau_n| (and active). A maximal run of consecutive
+    # pieces where the function is negative counts only if the function is < -tol somewhere
+    # on the run (tol = contact_tol * max|sigma_n| on Gamma_C): round-off noise around zero
+    # (separated zone with sigma_n ~ 1e-17, slip zone with |sigma_t| - F|sigma_n| ~ 1e-17) is
+    # not classified active / stick, while genuine zones keep their exact end points.
+    info = np.array(info).reshape(-1, 5)
+    for tol, ka, ks in ((tol_abs, "active", "stick"), (0.0, "active_strict", "stick_strict")):
+        act = _significant_runs(info[:, 1] < 0, info[:, 2], tol)
+        stk = act & _significant_runs(info[:, 3] < 0, info[:, 4], tol)
+        acc[ka] += float(np.sum(info[act, 0]))
+        acc[ks] += float(np.sum(info[stk, 0]))
     acc["pieces"] = len(pts) - 1
     acc["split_points"] = pts
     return acc
+
+
+def _significant_runs(neg, fmin, tol):
+    """neg[i]: function negative on piece i; fmin[i]: its minimum there. Returns, per piece,
+    whether it belongs to a run of consecutive negative pieces whose minimum is < -tol
+    (tol = 0: simply `neg`)."""
+    out = np.zeros(len(neg), dtype=bool)
+    i = 0
+    while i < len(neg):
+        if not neg[i]:
+            i += 1
+            continue
+        j = i
+        while j < len(neg) and neg[j]:
+            j += 1
+        out[i:j] = fmin[i:j].min() < -tol
+        i = j
+    return out
 
 
 def _sup_on_edges(sol, fn, cells, locals_, extra_s=None):
@@ -306,6 +330,8 @@ def _sup_on_edges(sol, fn, cells, locals_, extra_s=None):
                                 options={"xatol": 1e-15})
             if -r.fun > best_val:
                 best_val, best_e, best_s = -float(r.fun), int(i), float(r.x)
+    if not best_val > 0:
+        return 0.0, None, max(node_max, 0.0)
     xloc = edge_fields(sol, cells[best_e:best_e + 1], locals_[best_e:best_e + 1],
                        np.array([[best_s]]))["x"][0, 0]
     return best_val, [float(xloc[0]), float(xloc[1])], node_max

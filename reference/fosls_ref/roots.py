@@ -43,6 +43,6 @@ def roots(f, a, b, ngrid=64, deg=16):
             out.append(S[i])
     for i in range(len(S) - 1):
         if sg[i] * sg[i + 1] < 0:
-            out.append(brentq(fs, S[i], S[i + 1], xtol=1e-16 * (b - a) + 1e-300, rtol=4.5e-16,
+            out.append(brentq(fs, S[i], S[i + 1], xtol=1e-16 * (b - a) + 1e-300, rtol=8.9e-16,
                               maxiter=200))
     return np.unique(np.array(out, dtype=float))

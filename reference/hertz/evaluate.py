@@ -167,6 +167,10 @@ class Fixture:
     def gap_poly_roots(self, e, bd, delta):
         """sub-intervals of [0,1] where u_n - g >= -delta, and max of u_n - g on the edge."""
         straight = (not self.quad) or bd.get("normal", "body") == "obstacle"
+        if not straight:  # a P2 edge whose mid node lies on the chord has a constant normal
+            xa, xb, xm = self.X[e[0]], self.X[e[1]], self.X[e[2]]
+            d, q = xb - xa, xm - 0.5 * (xa + xb)
+            straight = abs(d[0] * q[1] - d[1] * q[0]) <= 1e-12 * (d @ d)
         s = np.linspace(0.0, 1.0, 5)
         xs, dxs, us, _ = self._edge_eval(e, s)
         n, t, g = self._frame(bd, xs, dxs)
@@ -193,7 +197,7 @@ class Fixture:
 
     def contact_report(self, bd, idx, delta, slip_rel_tol):
         F_fric = float(bd.get("friction", 0.0))
-        normal_force = tangential_force = M2 = M1 = 0.0
+        normal_force = tangential_force = M0 = M1 = M2 = 0.0
         active_len = 0.0
         xr = [np.inf, -np.inf]
         pen_max = 0.0
@@ -207,13 +211,18 @@ class Fixture:
             st = np.einsum("qd,qd->q", t, tr)
             normal_force += float(GL_W @ (-sn))
             tangential_force += float(GL_W @ st)
-            M1 += float(GL_W @ (-sn * xs[:, 0]))
-            M2 += float(GL_W @ (-sn * xs[:, 0] ** 2))
             total_len += float(GL_W @ np.linalg.norm(dxs, axis=1))
             ivs, fmax = self.gap_poly_roots(e, bd, delta)
             pen_max = max(pen_max, fmax)
             for a, b in ivs:
                 active_len += self._length(e, a, b)
+                sq = a + (b - a) * GL_X
+                xq, dxq, _, Sq = self._edge_eval(e, sq)
+                nq, _, _ = self._frame(bd, xq, dxq)
+                pq = -np.einsum("qd,qd->q", nq, self._traction(Sq, dxq)) * (b - a)
+                M0 += float(GL_W @ pq)
+                M1 += float(GL_W @ (pq * xq[:, 0]))
+                M2 += float(GL_W @ (pq * xq[:, 0] ** 2))
                 N, _ = shape1d(np.array([a, b]), self.quad)
                 xab = N @ self.X[list(e)]
                 xr[0] = min(xr[0], xab[:, 0].min())
@@ -243,8 +252,9 @@ class Fixture:
         rep = dict(
             normal_force=normal_force,
             tangential_force=tangential_force,
-            pressure_centroid_x=M1 / normal_force if normal_force else None,
-            a_moment=2.0 * math.sqrt(M2 / normal_force) if normal_force > 0 and M2 > 0 else None,
+            normal_force_active=M0,
+            pressure_centroid_x=M1 / M0 if M0 else None,
+            a_moment=2.0 * math.sqrt(M2 / M0) if M0 > 0 and M2 > 0 else None,
             length=total_len,
             active_length=active_len,
             active_x_range=[float(xr[0]), float(xr[1])] if active_len > 0 else None,

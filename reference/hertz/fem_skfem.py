@@ -103,22 +103,31 @@ def assemble(dsc: Discretisation, E, nu):
 
 def solve_contact(dsc: Discretisation, K, top_nodes, uD, contact_nodes, friction=0.0, cscale=None,
                   maxit=100, verbose=False):
-    """Primal-dual active set for  u_y >= -y  at contact nodes (Signorini, optional Coulomb)."""
-    t0 = time.time()
-    n = K.shape[0]
-    F = np.zeros(n)
-    xy = dsc.nodes
+    """Hertz / block set-up: Dirichlet uD on top_nodes, plane y = 0 (gap = y), no load."""
     top_nodes = np.asarray(top_nodes)
     cn = np.setdiff1d(np.asarray(contact_nodes), top_nodes)
+    gap = dsc.nodes[cn, 1]
+    # initial guess: the rigid translation uD -> contact where it would penetrate, all stick
+    state = np.where(gap + uD[1] < 0, 1 if friction > 0 else 2, 0)
+    dvals = np.tile(np.asarray(uD, float), (len(top_nodes), 1))
+    return solve_contact_general(dsc, K, np.zeros(K.shape[0]), top_nodes, dvals, cn, gap, friction=friction,
+                                 cscale=cscale, maxit=maxit, verbose=verbose, state=state)
+
+
+def solve_contact_general(dsc: Discretisation, K, F, dir_nodes, dir_vals, cn, gap, friction=0.0, cscale=None,
+                          maxit=100, verbose=False, state=None):
+    """Primal-dual active set for  -u_y <= gap  (contact direction n = (0,-1), t = (1,0)) at the nodes cn,
+    Dirichlet values dir_vals (N_d, 2) at dir_nodes, load vector F.  state: initial partition
+    (0 free, 1 stick, 2 slip with lambda_t = +F lambda_n, 3 slip with lambda_t = -F lambda_n); default all free."""
+    t0 = time.time()
+    n = K.shape[0]
+    dir_nodes = np.asarray(dir_nodes)
     dx, dy = dsc.node_dofs[cn, 0], dsc.node_dofs[cn, 1]
-    gap0 = xy[cn, 1]  # distance to the plane y = 0 (obstacle normal)
-    Dtop = np.concatenate([dsc.node_dofs[top_nodes, 0], dsc.node_dofs[top_nodes, 1]])
-    vtop = np.concatenate([np.full(len(top_nodes), uD[0]), np.full(len(top_nodes), uD[1])])
+    gap0 = np.asarray(gap, float)
+    Dtop = np.concatenate([dsc.node_dofs[dir_nodes, 0], dsc.node_dofs[dir_nodes, 1]])
+    vtop = np.concatenate([dir_vals[:, 0], dir_vals[:, 1]])
     c = cscale if cscale is not None else K.diagonal()[dy].mean()
-    # initial guess: rigid translation -> contact where it would penetrate, all stick
-    state = np.where(gap0 + uD[1] < 0, 1, 0)  # 0 free, 1 stick, 2 slip+, 3 slip-  (slip sign s = +1/-1 of lambda_t)
-    if friction == 0:
-        state[state == 1] = 2  # frictionless: "slip" with lambda_t = 0
+    state = np.zeros(len(cn), dtype=int) if state is None else np.asarray(state).copy()
     Kc = K.tocsr()
     history = []
     for it in range(1, maxit + 1):
@@ -175,8 +184,8 @@ def solve_contact(dsc: Discretisation, K, top_nodes, uD, contact_nodes, friction
         state = new
     else:
         raise RuntimeError("active set did not converge")
-    P = -r[dsc.node_dofs[top_nodes, 1]].sum()
-    Fx_top = r[dsc.node_dofs[top_nodes, 0]].sum()
+    P = -r[dsc.node_dofs[dir_nodes, 1]].sum()
+    Fx_top = r[dsc.node_dofs[dir_nodes, 0]].sum()
     return dict(u=u, r=r, contact_nodes=cn, lambda_n=ln, lambda_t=lt, state=state, iterations=it,
                 history=history, P=float(P), Fx_top=float(Fx_top), time=time.time() - t0,
                 final_residual=float(max(history[-1]["ncp_normal"], history[-1]["ncp_tangential"],

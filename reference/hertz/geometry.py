@@ -7,7 +7,7 @@ in ``ngmesh`` so that NGSolve works on exactly the same vertices and triangles.
 Hertz half disc: centre (0, 1), radius 1, region y <= 1.  Tags: 1 = arc below y = 1/2 (contact part),
 3 = arc above y = 1/2, 2 = flat top.  Geometry vertices at (0, 0), at the ends of the refined zone
 |x| <= xz and at y = 1/2 on the arc, so no boundary edge straddles y = 1/2.
-Block: [-1, 1] x [0, 1].  Tags: 1 = bottom, 2 = top, 3 = sides.
+Block: [-1, 1] x [0, 1].  Tags: 1 = bottom (contact), 2 = top, 3 = sides.
 """
 from dataclasses import dataclass, field
 import numpy as np
@@ -76,33 +76,33 @@ def half_disc(hc, xz=0.12, hmax=0.1, grading=0.3):
     return TriMesh(p, t, be, btag, ngm, dict(kind="half_disc", hc=hc, xz=xz, hmax=hmax, grading=grading))
 
 
-def block(hc, hmax=0.1, grading=0.3, hbottom=None):
-    """Rectangle [-1,1]x[0,1], graded toward the bottom corners (size hc there)."""
-    from netgen.geom2d import SplineGeometry
+def block(hc, hb=0.02, hmax=0.1, grading=0.3):
+    """Rectangle [-1,1]x[0,1] (netgen OCC): edge size hb along the bottom, refined to hc at the two bottom
+    corners (where the contact zone ends).  Names/tags: bottom = "contact"/1, top = "top"/2, sides = "free"/3."""
+    from netgen.occ import Pnt, Segment, Wire, Face, OCCGeometry
     import netgen.meshing as nm
-    geo = SplineGeometry()
-    hb = hbottom if hbottom is not None else 4 * hc
-    pts = [geo.AppendPoint(*q) for q in [(-1, 0), (-0.9, 0), (0.9, 0), (1, 0), (1, 1), (-1, 1)]]
-    geo.Append(["line", pts[0], pts[1]], bc="bottom", maxh=hc)
-    geo.Append(["line", pts[1], pts[2]], bc="bottom", maxh=hb)
-    geo.Append(["line", pts[2], pts[3]], bc="bottom", maxh=hc)
-    geo.Append(["line", pts[3], pts[4]], bc="side")
-    geo.Append(["line", pts[4], pts[5]], bc="top")
-    geo.Append(["line", pts[5], pts[0]], bc="side")
+    pts = [Pnt(-1.0, 0.0, 0.0), Pnt(1.0, 0.0, 0.0), Pnt(1.0, 1.0, 0.0), Pnt(-1.0, 1.0, 0.0)]
+    face = Face(Wire([Segment(pts[i], pts[(i + 1) % 4]) for i in range(4)]))
+    for e in face.edges:
+        ys = (e.start.y, e.end.y)
+        e.name = "contact" if ys == (0.0, 0.0) else ("top" if ys == (1.0, 1.0) else "free")
+    geo = OCCGeometry(face, dim=2)
     mp = nm.MeshingParameters(maxh=hmax, grading=grading)
-    mp.RestrictH(x=-1.0, y=0.0, z=0.0, h=hc)
-    mp.RestrictH(x=1.0, y=0.0, z=0.0, h=hc)
+    for xb in np.linspace(-1.0, 1.0, int(np.ceil(2.0 / hb)) + 1):
+        mp.RestrictH(x=float(xb), y=0.0, z=0.0, h=hb)
+    for xc in (-1.0, 1.0):
+        mp.RestrictH(x=xc, y=0.0, z=0.0, h=hc)
     ngm = geo.GenerateMesh(mp=mp)
 
     def classify(a, b):
         if a[1] == 0.0 and b[1] == 0.0:
-            return 1
+            return TAG_CONTACT
         if a[1] == 1.0 and b[1] == 1.0:
-            return 2
-        return 3
+            return TAG_TOP
+        return TAG_FREE
 
     p, t, be, btag = _from_netgen(ngm, classify)
-    return TriMesh(p, t, be, btag, ngm, dict(kind="block", hc=hc, hmax=hmax, grading=grading, hbottom=hb))
+    return TriMesh(p, t, be, btag, ngm, dict(kind="block", hc=hc, hb=hb, hmax=hmax, grading=grading))
 
 
 def project_circle(q):

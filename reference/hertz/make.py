@@ -28,11 +28,11 @@ CASES = {
                   encoding="zlib", tags=True, cell_stress_name="stress_cell")),
     "hertz_skfem_p2": dict(
         lib="skfem", degree=2, nu=0.28, mesh=MESH_A, sel="where", upper=False,
-        file=dict(displacement="displacement", ucomp=3, stress="stress", layout="xx,yy,zz,xy", write_layout=True,
+        file=dict(displacement="displacement", ucomp=2, stress="stress", layout="xx,yy,xy", write_layout=True,
                   encoding="ascii", tags=False)),
     "hertz_skfem_p2_nu05": dict(
         lib="skfem", degree=2, nu=0.5, mixed=True, mesh=MESH_A, sel="tag", upper=False,
-        file=dict(displacement="U", ucomp=2, stress="sigma", layout="9", write_layout=False,
+        file=dict(displacement="U", ucomp=2, stress="sigma", layout="xx,yy,zz,xy", write_layout=False,
                   encoding="raw", tags=True)),
     "hertz_ngsolve_p1": dict(
         lib="ngsolve", degree=1, nu=0.28, mesh=MESH_A, sel="where", upper=True,
@@ -57,7 +57,7 @@ CASES = {
     "hertz_skfem_p2_coulomb": dict(
         lib="skfem", degree=2, nu=0.28, friction=0.4, mesh=MESH_A, sel="tag", upper=True,
         file=dict(displacement="U", ucomp=3, stress="stress", layout="9", write_layout=False,
-                  encoding="ascii", tags=True)),
+                  encoding="zlib", tags=True)),
 }
 
 ENCODING_TEXT = {

@@ -177,8 +177,10 @@ const BASE64: GeneralPurpose = GeneralPurpose::new(
 );
 
 /// Decodes base64 text that may contain whitespace and several padded segments
-/// (`"AAAAAA==" + "…"`), returning the concatenation of the decoded segments.
+/// (`"AAAAAA==" + "…"`), returning the concatenation of the decoded segments. Long segments
+/// are decoded in parallel pieces of whole 4-character groups.
 pub fn base64_decode(text: &[u8]) -> DecodeResult<Vec<u8>> {
+    let text = text.trim_ascii();
     let compact: Cow<[u8]> = if text.iter().any(u8::is_ascii_whitespace) {
         Cow::Owned(
             text.iter()
@@ -194,28 +196,106 @@ pub fn base64_decode(text: &[u8]) -> DecodeResult<Vec<u8>> {
     let mut rest: &[u8] = &compact;
     while !rest.is_empty() {
         // A segment ends after a run of '=' padding (or at the end of the text).
-        let end = match rest.iter().position(|&c| c == b'=') {
+        let end = match memchr::memchr(b'=', rest) {
             Some(p) => p + rest[p..].iter().take_while(|&&c| c == b'=').count(),
             None => rest.len(),
         };
-        let n = BASE64
-            .decode_slice(&rest[..end], &mut out[written..])
-            .map_err(|e| format!("invalid base64 data: {e}"))?;
-        written += n;
+        written += decode_segment(&rest[..end], &mut out[written..])?;
         rest = &rest[end..];
     }
     out.truncate(written);
     Ok(out)
 }
 
-/// Reads one `header ‖ data` payload from the start of `bytes` and returns the decoded data
-/// bytes. `expected_bytes`, when known from the declared counts, must equal the decoded size;
-/// otherwise the header's size is taken, bounded by the bytes present in the file.
+/// Decodes one base64 segment (padding only at its end) into `out`, returning the length.
+fn decode_segment(seg: &[u8], out: &mut [u8]) -> DecodeResult<usize> {
+    const PIECE: usize = 1 << 20; // characters, a multiple of 4
+    let bad = |e: base64::DecodeSliceError| format!("invalid base64 data: {e}");
+    if seg.len() <= PIECE {
+        return BASE64.decode_slice(seg, out).map_err(bad);
+    }
+    let lengths: Vec<usize> = seg
+        .par_chunks(PIECE)
+        .zip(out.par_chunks_mut(PIECE / 4 * 3))
+        .map(|(text, dst)| BASE64.decode_slice(text, dst).map_err(bad))
+        .collect::<DecodeResult<_>>()?;
+    Ok(lengths.iter().sum())
+}
+
+/// A parsed `header ‖ data` payload: where the data bytes are, before any inflation.
+#[derive(Debug)]
+pub enum Payload<'a> {
+    /// Uncompressed data.
+    Raw(&'a [u8]),
+    /// Compressed blocks that inflate to `block_size` bytes each (the last one possibly
+    /// fewer), `total` bytes in all.
+    Blocks {
+        compressor: Compressor,
+        block_size: usize,
+        total: usize,
+        blocks: Vec<&'a [u8]>,
+    },
+}
+
+impl Payload<'_> {
+    /// Decoded size in bytes.
+    pub fn len(&self) -> usize {
+        match self {
+            Payload::Raw(b) => b.len(),
+            Payload::Blocks { total, .. } => *total,
+        }
+    }
+
+    /// Whether the payload holds no data.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Decodes into `dst`, which must be exactly [`Payload::len`] bytes long; blocks inflate in
+    /// parallel, each into its own part of `dst`.
+    pub fn decode_into(&self, dst: &mut [u8]) -> DecodeResult<()> {
+        debug_assert_eq!(dst.len(), self.len());
+        match self {
+            Payload::Raw(b) => {
+                dst.copy_from_slice(b);
+                Ok(())
+            }
+            Payload::Blocks {
+                compressor,
+                block_size,
+                blocks,
+                ..
+            } => dst
+                .par_chunks_mut((*block_size).max(1))
+                .zip(blocks.par_iter())
+                .enumerate()
+                .try_for_each(|(i, (d, src))| {
+                    inflate(*compressor, src, d).map_err(|e| format!("block {i}: {e}"))
+                }),
+        }
+    }
+
+    /// The decoded bytes, borrowed when nothing needs inflating.
+    pub fn bytes(&self) -> DecodeResult<Cow<'_, [u8]>> {
+        match self {
+            Payload::Raw(b) => Ok(Cow::Borrowed(b)),
+            Payload::Blocks { total, .. } => {
+                let mut out = vec![0u8; *total];
+                self.decode_into(&mut out)?;
+                Ok(Cow::Owned(out))
+            }
+        }
+    }
+}
+
+/// Parses the header of one `header ‖ data` payload at the start of `bytes`. `expected_bytes`,
+/// when known from the declared counts, must equal the decoded size; otherwise the header's size
+/// is taken, bounded by the bytes present in the file. Nothing is allocated for the data here.
 pub fn payload<'a>(
     bytes: &'a [u8],
     layout: &Layout,
     expected_bytes: Option<u64>,
-) -> DecodeResult<Cow<'a, [u8]>> {
+) -> DecodeResult<Payload<'a>> {
     let hs = layout.header_size();
     match layout.compressor {
         Compressor::None => {
@@ -234,7 +314,7 @@ pub fn payload<'a>(
                      (truncated data or offset past the end)"
                 ));
             }
-            Ok(Cow::Borrowed(&bytes[hs..hs + n as usize]))
+            Ok(Payload::Raw(&bytes[hs..hs + n as usize]))
         }
         compressor => {
             let nblocks = layout.header_int(bytes, 0)?;
@@ -275,19 +355,21 @@ pub fn payload<'a>(
                      need {e}"
                 ));
             }
-            let mut csizes = Vec::with_capacity(nblocks as usize);
+            let mut blocks = Vec::with_capacity(nblocks as usize);
+            let mut at = header_len;
             let mut sum = 0u64;
             for b in 0..nblocks as usize {
                 let c = layout.header_int(bytes, 3 + b)?;
                 sum = sum.saturating_add(c);
-                csizes.push(c as usize);
-            }
-            let available = (bytes.len() - header_len) as u64;
-            if sum > available {
-                return Err(format!(
-                    "compressed blocks declare {sum} bytes but only {available} remain in the file \
-                     (truncated data or offset past the end)"
-                ));
+                if sum > (bytes.len() - header_len) as u64 {
+                    return Err(format!(
+                        "compressed blocks declare more bytes than the {} that remain in the \
+                         file (truncated data or offset past the end)",
+                        bytes.len() - header_len
+                    ));
+                }
+                blocks.push(&bytes[at..at + c as usize]);
+                at += c as usize;
             }
             let bound = sum
                 .saturating_mul(max_ratio(compressor))
@@ -300,20 +382,12 @@ pub fn payload<'a>(
                     compressor.name()
                 ));
             }
-            let mut out = vec![0u8; total as usize];
-            let mut inputs = Vec::with_capacity(csizes.len());
-            let mut at = header_len;
-            for &c in &csizes {
-                inputs.push(&bytes[at..at + c]);
-                at += c;
-            }
-            out.par_chunks_mut(block_size.max(1) as usize)
-                .zip(inputs.par_iter())
-                .enumerate()
-                .try_for_each(|(i, (dst, src))| {
-                    inflate(compressor, src, dst).map_err(|e| format!("block {i}: {e}"))
-                })?;
-            Ok(Cow::Owned(out))
+            Ok(Payload::Blocks {
+                compressor,
+                block_size: block_size as usize,
+                total: total as usize,
+                blocks,
+            })
         }
     }
 }
@@ -473,7 +547,7 @@ macro_rules! convert_as {
 /// Converts raw data bytes of type `scalar` to numbers. `bytes.len()` must be a multiple of the
 /// type size (checked).
 pub fn convert<T: Number>(bytes: &[u8], scalar: Scalar, big_endian: bool) -> DecodeResult<Vec<T>> {
-    if bytes.len() % scalar.size() != 0 {
+    if !bytes.len().is_multiple_of(scalar.size()) {
         return Err(format!(
             "{} bytes of data is not a whole number of {} values",
             bytes.len(),
@@ -592,7 +666,8 @@ mod tests {
         let data: Vec<u8> = (0..2500u32).map(|i| (i % 251) as u8).collect();
         let blocks: Vec<Vec<u8>> = data.chunks(1000).map(zlib).collect();
         let p = compressed_payload(&blocks, 1000, 500);
-        let out = payload(&p, &ZLIB64, Some(2500)).unwrap();
+        let parsed = payload(&p, &ZLIB64, Some(2500)).unwrap();
+        let out = parsed.bytes().unwrap();
         assert_eq!(&out[..], &data[..]);
     }
 
@@ -601,7 +676,10 @@ mod tests {
         let bomb = zlib(&vec![0u8; 1 << 20]);
         // Declares 1000 bytes for a block that inflates to 1 MiB.
         let p = compressed_payload(&[bomb], 1000, 0);
-        let e = payload(&p, &ZLIB64, Some(1000)).unwrap_err();
+        let e = payload(&p, &ZLIB64, Some(1000))
+            .unwrap()
+            .bytes()
+            .unwrap_err();
         assert_eq!(
             e,
             "block 0: zlib block inflates past its declared size of 1000 bytes"
@@ -611,7 +689,7 @@ mod tests {
     #[test]
     fn a_huge_declared_size_is_refused_before_allocation() {
         let tiny = zlib(&[0u8; 16]);
-        let p = compressed_payload(&[tiny.clone()], 5 << 30, 0);
+        let p = compressed_payload(std::slice::from_ref(&tiny), 5 << 30, 0);
         let e = payload(&p, &ZLIB64, None).unwrap_err();
         assert!(e.contains("claims to inflate to 5368709120 bytes"), "{e}");
     }
@@ -628,7 +706,8 @@ mod tests {
             big_endian: true,
             compressor: Compressor::None,
         };
-        let bytes = payload(&p, &layout, Some(24)).unwrap();
+        let parsed = payload(&p, &layout, Some(24)).unwrap();
+        let bytes = parsed.bytes().unwrap();
         let got: Vec<f64> = convert(&bytes, Scalar::Float64, true).unwrap();
         assert_eq!(got, vals);
     }
@@ -658,7 +737,10 @@ mod tests {
             compressor: Compressor::Lz4,
             ..ZLIB64
         };
-        assert_eq!(&payload(&p, &layout, Some(3000)).unwrap()[..], &data[..]);
+        assert_eq!(
+            &payload(&p, &layout, Some(3000)).unwrap().bytes().unwrap()[..],
+            &data[..]
+        );
 
         let mut xz = Vec::new();
         lzma_rs::xz_compress(&mut &data[..], &mut xz).unwrap();
@@ -667,7 +749,10 @@ mod tests {
             compressor: Compressor::Lzma,
             ..ZLIB64
         };
-        assert_eq!(&payload(&p, &layout, Some(3000)).unwrap()[..], &data[..]);
+        assert_eq!(
+            &payload(&p, &layout, Some(3000)).unwrap().bytes().unwrap()[..],
+            &data[..]
+        );
     }
 
     #[test]

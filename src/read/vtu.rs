@@ -222,6 +222,9 @@ enum Tag {
     Other,
 }
 
+/// A DataArray being read: its section, attributes and text segments so far.
+type OpenArray<'a> = (Tag, Vec<(String, String)>, Vec<Cow<'a, [u8]>>);
+
 /// The appended-data section: its bytes (after the `_` marker) and its encoding.
 struct Appended<'a> {
     data: &'a [u8],
@@ -259,7 +262,7 @@ fn text_bytes(t: Cow<'_, str>) -> Cow<'_, [u8]> {
 }
 
 fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
-    haystack.windows(needle.len()).position(|w| w == needle)
+    memchr::memmem::find(haystack, needle)
 }
 
 /// Parses the bytes of a VTU file (see [`read_vtu`]).
@@ -303,9 +306,7 @@ pub fn parse_vtu(path: &Path, bytes: &[u8]) -> Result<VtuFile> {
                         "no '_' marker before the data (truncated file?)".into(),
                     )
                 })?;
-            let end = bytes
-                .windows(b"</AppendedData>".len())
-                .rposition(|w| w == b"</AppendedData>")
+            let end = memchr::memmem::rfind(bytes, b"</AppendedData>")
                 .filter(|&e| e >= underscore)
                 .ok_or_else(|| {
                     err(
@@ -351,7 +352,7 @@ pub fn parse_vtu(path: &Path, bytes: &[u8]) -> Result<VtuFile> {
     let mut pieces: Vec<PieceSpec> = Vec::new();
     let mut specs: Vec<ArraySpec> = Vec::new();
     // The DataArray being read: its attributes and text segments.
-    let mut current: Option<(Tag, Vec<(String, String)>, Vec<Cow<[u8]>>)> = None;
+    let mut current: Option<OpenArray> = None;
 
     loop {
         let pos = reader.buffer_position();
@@ -741,7 +742,8 @@ fn decode_array(
         None => None,
     };
     let expected_bytes = expected.map(|n| (n * spec.scalar.size()) as u64);
-    let bytes: Cow<[u8]> = match &spec.source {
+    let raw: Vec<u8>;
+    let data: &[u8] = match &spec.source {
         Source::Ascii(text) => {
             let out = if integer {
                 Decoded::Int(decode::parse_ascii(text, spec.scalar, expected)?)
@@ -751,8 +753,8 @@ fn decode_array(
             return check_count(out, expected, spec.components);
         }
         Source::Binary(text) => {
-            let raw = decode::base64_decode(text)?;
-            Cow::Owned(decode::payload(&raw, layout, expected_bytes)?.into_owned())
+            raw = decode::base64_decode(text)?;
+            &raw
         }
         Source::Appended(off) => {
             let a = appended.ok_or("no appended data")?;
@@ -770,17 +772,32 @@ fn decode_array(
                     .copied()
                     .unwrap_or(a.data.len())
                     .min(a.data.len());
-                let raw = decode::base64_decode(&a.data[*off..next])?;
-                Cow::Owned(decode::payload(&raw, layout, expected_bytes)?.into_owned())
+                raw = decode::base64_decode(&a.data[*off..next])?;
+                &raw
             } else {
-                decode::payload(&a.data[*off..], layout, expected_bytes)?
+                &a.data[*off..]
             }
         }
     };
-    let out = if integer {
-        Decoded::Int(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+    let payload = decode::payload(data, layout, expected_bytes)?;
+    let out = if spec.scalar == Scalar::Float64 && !layout.big_endian && !integer {
+        // The common case decodes straight into the result: no intermediate byte buffer.
+        let mut v = vec![0.0f64; payload.len() / 8];
+        if !payload.len().is_multiple_of(8) {
+            return Err(format!(
+                "{} bytes of data is not a whole number of Float64 values",
+                payload.len()
+            ));
+        }
+        payload.decode_into(bytemuck::cast_slice_mut(&mut v))?;
+        Decoded::Float(v)
     } else {
-        Decoded::Float(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+        let bytes = payload.bytes()?;
+        if integer {
+            Decoded::Int(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+        } else {
+            Decoded::Float(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+        }
     };
     check_count(out, expected, spec.components)
 }

@@ -39,7 +39,7 @@ fn compressed_payload(raw: &[u8]) -> Vec<u8> {
         })
         .collect();
     let nblocks = blocks.len() as u64;
-    let last = if raw.len() % BLOCK == 0 {
+    let last = if raw.len().is_multiple_of(BLOCK) {
         0
     } else {
         (raw.len() % BLOCK) as u64
