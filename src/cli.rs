@@ -29,12 +29,37 @@ pub enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Rewrite a VTU file as binary zlib-compressed VTU (appended raw, or inline base64).
+    Convert {
+        /// The VTU file to read.
+        input: PathBuf,
+        /// The VTU file to write (never the input).
+        output: PathBuf,
+        /// Put the data inline (base64) instead of in one appended raw section.
+        #[arg(long)]
+        inline: bool,
+    },
 }
 
 /// Runs the command; `Ok(code)` for completed runs, `Err` for bad input or usage (exit 2).
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Inspect { file, json, quiet } => inspect_file(&file, json.as_deref(), quiet),
+        Command::Convert {
+            input,
+            output,
+            inline,
+        } => {
+            check_output(&input, &output)?;
+            let vtu = read::vtu::read_vtu(&input)?;
+            let placement = if inline {
+                write::Placement::Inline
+            } else {
+                write::Placement::AppendedRaw
+            };
+            write::write_vtu(&output, &vtu, placement)?;
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 

@@ -132,7 +132,20 @@ def _find_array(data, wanted, candidates, what, path, cell_data=None):
                      f"point data: {sorted(data)}")
 
 
+def _count_pieces(path):
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError:
+        return 0
+    cut = raw.find(b"<AppendedData")
+    return len(re.findall(rb"<Piece\b", raw[:cut] if cut >= 0 else raw))
+
+
 def read_solution(path, scene, layout_override=None):
+    if _count_pieces(path) > 1:
+        raise InputError(f"{path}: {_count_pieces(path)} <Piece> elements: meshio 5.3.5 reads only "
+                         "the last piece, so the reference refuses multi-piece files")
     try:
         m = meshio.read(path)
     except FileNotFoundError:

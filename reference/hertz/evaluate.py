@@ -122,6 +122,12 @@ class Fixture:
 
     def _frame(self, bd, xs, dxs):
         """contact direction n (q,2), tangent t, gap g (q,) for a contact boundary."""
+        if "gap" in bd:  # gap given directly; n = n_Ω (body normal)
+            nom = np.stack([dxs[:, 1], -dxs[:, 0]], axis=1)
+            n = nom / np.linalg.norm(nom, axis=1, keepdims=True)
+            g = np.broadcast_to(safe_eval(bd["gap"], xs[:, 0], xs[:, 1]), (len(xs),)).astype(float)
+            t = np.stack([-n[:, 1], n[:, 0]], axis=1)
+            return n, t, g
         pl = bd["obstacle"]["plane"]
         p = np.array(pl["point"], float)
         m = np.array(pl["normal"], float)
@@ -166,6 +172,8 @@ class Fixture:
 
     def gap_poly_roots(self, e, bd, delta):
         """sub-intervals of [0,1] where u_n - g >= -delta, and max of u_n - g on the edge."""
+        if "gap" in bd:
+            return self._gap_general(e, bd, delta)
         straight = (not self.quad) or bd.get("normal", "body") == "obstacle"
         if not straight:  # a P2 edge whose mid node lies on the chord has a constant normal
             xa, xb, xm = self.X[e[0]], self.X[e[1]], self.X[e[2]]
@@ -194,6 +202,33 @@ class Fixture:
             if b > a and np.polynomial.polynomial.polyval(0.5 * (a + b), c2) >= 0:
                 ivs.append((a, b))
         return ivs, float(fmax)
+
+    def _gap_general(self, e, bd, delta, nsamp=129):
+        """Non-polynomial gap (expression): sign changes on a uniform sampling of s refined by brentq;
+        maximum from the samples refined by a bounded scalar search."""
+        from scipy.optimize import brentq, minimize_scalar
+
+        def f(s):
+            s = np.atleast_1d(np.asarray(s, float))
+            xs, dxs, us, _ = self._edge_eval(e, s)
+            n, t, g = self._frame(bd, xs, dxs)
+            return np.einsum("qd,qd->q", n, us) - g
+
+        s = np.linspace(0.0, 1.0, nsamp)
+        fs = f(s) + delta
+        roots = []
+        for i in range(nsamp - 1):
+            if fs[i] == 0.0:
+                roots.append(s[i])
+            elif fs[i] * fs[i + 1] < 0:
+                roots.append(brentq(lambda z: f(z)[0] + delta, s[i], s[i + 1], xtol=1e-15, rtol=1e-15))
+        br = np.unique(np.concatenate([[0.0], roots, [1.0]]))
+        ivs = [(a, b) for a, b in zip(br[:-1], br[1:]) if b > a and f(0.5 * (a + b))[0] + delta >= 0]
+        i = int(np.argmax(fs))
+        lo, hi = s[max(i - 1, 0)], s[min(i + 1, nsamp - 1)]
+        res = minimize_scalar(lambda z: -f(z)[0], bounds=(lo, hi), method="bounded", options=dict(xatol=1e-12))
+        fmax = max(float(fs[i] - delta), float(-res.fun))
+        return ivs, fmax
 
     def contact_report(self, bd, idx, delta, slip_rel_tol):
         F_fric = float(bd.get("friction", 0.0))

@@ -130,6 +130,7 @@ def write_fixture(outdir, case, nodes, cells, lines, line_tags, U, S4, scene, cf
     d.mkdir(parents=True, exist_ok=True)
     Uw = U if cfg.get("ucomp", 2) == 2 else np.hstack([U, np.zeros((len(U), 1))])
     pdata = {cfg["displacement"]: np.ascontiguousarray(Uw), cfg["stress"]: vtuio.stress_layout(S4, cfg["layout"])}
+    pdata.update(cfg.get("extra_point_data", {}))
     cdata = {}
     if cfg.get("cell_stress") is not None:
         cdata[cfg["cell_stress_name"]] = vtuio.stress_layout(cfg["cell_stress"], cfg.get("cell_layout", "xx,yy,zz,xy"))

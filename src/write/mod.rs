@@ -24,8 +24,8 @@ pub enum Placement {
 /// Uncompressed size of one zlib block (VTK's default).
 const BLOCK: usize = 1 << 15;
 
-/// One payload: `header ‖ blocks` with the header in UInt64, little endian.
-fn compressed_payload(raw: &[u8]) -> Vec<u8> {
+/// One payload as `(header, blocks)`, the header in UInt64, little endian.
+fn compressed_payload(raw: &[u8]) -> (Vec<u8>, Vec<u8>) {
     let blocks: Vec<Vec<u8>> = raw
         .par_chunks(BLOCK)
         .map(|b| {
@@ -44,18 +44,14 @@ fn compressed_payload(raw: &[u8]) -> Vec<u8> {
     } else {
         (raw.len() % BLOCK) as u64
     };
-    let mut out =
-        Vec::with_capacity(8 * (3 + blocks.len()) + blocks.iter().map(Vec::len).sum::<usize>());
+    let mut header = Vec::with_capacity(8 * (3 + blocks.len()));
     for v in [nblocks, BLOCK as u64, last] {
-        out.extend_from_slice(&v.to_le_bytes());
+        header.extend_from_slice(&v.to_le_bytes());
     }
     for b in &blocks {
-        out.extend_from_slice(&(b.len() as u64).to_le_bytes());
+        header.extend_from_slice(&(b.len() as u64).to_le_bytes());
     }
-    for b in &blocks {
-        out.extend_from_slice(b);
-    }
-    out
+    (header, blocks.concat())
 }
 
 fn f64_bytes(v: &[f64]) -> Vec<u8> {
@@ -132,7 +128,7 @@ pub fn to_bytes(file: &VtuFile, placement: Placement) -> Vec<u8> {
             items.push((section, Item { attrs, raw }));
         }
     }
-    let payloads: Vec<Vec<u8>> = items
+    let payloads: Vec<(Vec<u8>, Vec<u8>)> = items
         .par_iter()
         .map(|(_, it)| compressed_payload(&it.raw))
         .collect();
@@ -174,12 +170,15 @@ pub fn to_bytes(file: &VtuFile, placement: Placement) -> Vec<u8> {
                     it.attrs,
                     appended.len()
                 ));
-                appended.extend_from_slice(&payloads[k]);
+                appended.extend_from_slice(&payloads[k].0);
+                appended.extend_from_slice(&payloads[k].1);
             }
             Placement::Inline => {
-                // Header and blocks as one base64 string.
+                // Header and blocks as two base64 strings: VTK decodes the header on its own.
+                let b64 = &base64::engine::general_purpose::STANDARD;
                 xml.push_str(&format!("<DataArray {} format=\"binary\">\n", it.attrs));
-                xml.push_str(&base64::engine::general_purpose::STANDARD.encode(&payloads[k]));
+                xml.push_str(&b64.encode(&payloads[k].0));
+                xml.push_str(&b64.encode(&payloads[k].1));
                 xml.push_str("\n</DataArray>\n");
             }
         }

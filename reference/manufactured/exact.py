@@ -1,0 +1,161 @@
+"""Manufactured smooth contact solutions on the unit square, Gamma_C = bottom y = 0 (n = n_Ω = (0,-1),
+t = (1,0), so u_n = -u_y, u_t = u_x, sigma_n = sigma_yy, sigma_t = -sigma_xy on y = 0).
+
+    u_x = w(x) + y m(x) + y^2 A(x,y),      u_y = c0 + y v(x) + y^2 B(x,y)
+
+with p(x) = P0 max(x0 - x, 0)^4 (contact pressure), v = -(p + lam w')/(lam + 2 mu), so that on y = 0
+sigma_yy = -p and sigma_xy = mu m.  Frictionless: m = 0.  Coulomb (coefficient F): w = -W0 max(x - x1, 0)^4
+(slip u_t < 0 on x1 < x < x0, stick u_t = 0 on x < x1), m = -F p psi / mu with psi = 1 on the slip zone and
+psi = 1 - C max(x1 - x, 0)^4 / x1^4 in [1/2, 1] in the stick zone, so sigma_t = F p psi (= F|sigma_n| where it
+slips, strictly inside the cone where it sticks except at x1).  Gap g(x) = -c0 + S0 max(x - x0, 0)^4: active
+(u_n = g, sigma_n < 0) on 0 <= x < x0, inactive (u_n < g, sigma_n = 0) on x0 < x <= 1.
+
+Everything (u, sigma, body force f = -div sigma, boundary data) is built as expression strings in the
+scene-file language of DESIGN.md §7 (max, sin, cos, ^), and evaluated from the same strings in numpy, so
+the scene data and the reference solution cannot disagree.  self_test() checks the derivatives by
+finite differences.  The functions are C^3 (piecewise polynomial in x across x0, x1).
+"""
+import numpy as np
+
+E, NU = 1000.0, 0.3
+MU = E / (2 * (1 + NU))
+LAM = E * NU / ((1 + NU) * (1 - 2 * NU))
+X0, X1 = 0.6, 0.3
+C0 = -0.01
+P0 = 10.0 / X0 ** 4        # p(0) = 10
+W0 = 0.005 / (X0 - X1) ** 4  # |w(x0)| = 0.005
+S0 = 0.005 / (1 - X0) ** 4   # extra gap 0.005 at x = 1
+ALPHA, BETA = 0.002, 0.002
+CPSI = 0.5
+
+
+def r(v):
+    return repr(float(v))
+
+
+def q(k, t):
+    return f"max({t}, 0)^{k}" if k > 1 else f"max({t}, 0)"
+
+
+class Exact:
+    def __init__(self, friction=0.0):
+        F = self.F = float(friction)
+        a, b = f"(x - {r(X1)})", f"({r(X0)} - x)"
+        c = f"({r(X1)} - x)"
+        L, M2 = r(LAM), r(LAM + 2 * MU)
+        s = {}
+        s["p"] = f"{r(P0)}*{q(4, b)}"
+        s["p1"] = f"(-{r(4 * P0)}*{q(3, b)})"
+        s["p2"] = f"{r(12 * P0)}*{q(2, b)}"
+        s["w"] = f"(-{r(W0)}*{q(4, a)})"
+        s["w1"] = f"(-{r(4 * W0)}*{q(3, a)})"
+        s["w2"] = f"(-{r(12 * W0)}*{q(2, a)})"
+        s["w3"] = f"(-{r(24 * W0)}*{q(1, a)})"
+        k = CPSI / X1 ** 4
+        s["psi"] = f"(1 - {r(k)}*{q(4, c)})"
+        s["psi1"] = f"({r(4 * k)}*{q(3, c)})"
+        s["psi2"] = f"(-{r(12 * k)}*{q(2, c)})"
+        if F > 0:
+            fm = r(F / MU)
+            s["m"] = f"(-{fm}*{s['p']}*{s['psi']})"
+            s["m1"] = f"(-{fm}*({s['p1']}*{s['psi']} + {s['p']}*{s['psi1']}))"
+            s["m2"] = f"(-{fm}*({s['p2']}*{s['psi']} + 2*{s['p1']}*{s['psi1']} + {s['p']}*{s['psi2']}))"
+        else:
+            s["m"] = s["m1"] = s["m2"] = "0"
+        s["v"] = f"(-({s['p']} + {L}*{s['w1']})/{M2})"
+        s["v1"] = f"(-({s['p1']} + {L}*{s['w2']})/{M2})"
+        s["v2"] = f"(-({s['p2']} + {L}*{s['w3']})/{M2})"
+        al, be = r(ALPHA), r(BETA)
+        s["A"], s["Ax"], s["Ay"] = f"{al}*sin(2*x + y)", f"{r(2 * ALPHA)}*cos(2*x + y)", f"{al}*cos(2*x + y)"
+        s["Axx"], s["Ayy"], s["Axy"] = f"(-{r(4 * ALPHA)}*sin(2*x + y))", f"(-{al}*sin(2*x + y))", f"(-{r(2 * ALPHA)}*sin(2*x + y))"
+        s["B"], s["Bx"], s["By"] = f"{be}*cos(x - 2*y)", f"(-{be}*sin(x - 2*y))", f"{r(2 * BETA)}*sin(x - 2*y)"
+        s["Bxx"], s["Byy"], s["Bxy"] = f"(-{be}*cos(x - 2*y))", f"(-{r(4 * BETA)}*cos(x - 2*y))", f"{r(2 * BETA)}*cos(x - 2*y)"
+        e = {}
+        e["u1"] = f"({s['w']} + y*{s['m']} + y^2*{s['A']})"
+        e["u2"] = f"({r(C0)} + y*{s['v']} + y^2*{s['B']})"
+        e["u1x"] = f"({s['w1']} + y*{s['m1']} + y^2*{s['Ax']})"
+        e["u1y"] = f"({s['m']} + 2*y*{s['A']} + y^2*{s['Ay']})"
+        e["u2x"] = f"(y*{s['v1']} + y^2*{s['Bx']})"
+        e["u2y"] = f"({s['v']} + 2*y*{s['B']} + y^2*{s['By']})"
+        e["u1xx"] = f"({s['w2']} + y*{s['m2']} + y^2*{s['Axx']})"
+        e["u1yy"] = f"(2*{s['A']} + 4*y*{s['Ay']} + y^2*{s['Ayy']})"
+        e["u1xy"] = f"({s['m1']} + 2*y*{s['Ax']} + y^2*{s['Axy']})"
+        e["u2xx"] = f"(y*{s['v2']} + y^2*{s['Bxx']})"
+        e["u2yy"] = f"(2*{s['B']} + 4*y*{s['By']} + y^2*{s['Byy']})"
+        e["u2xy"] = f"({s['v1']} + 2*y*{s['Bx']} + y^2*{s['Bxy']})"
+        mu, lam = r(MU), r(LAM)
+        e["sxx"] = f"({M2}*{e['u1x']} + {lam}*{e['u2y']})"
+        e["syy"] = f"({lam}*{e['u1x']} + {M2}*{e['u2y']})"
+        e["sxy"] = f"({mu}*({e['u1y']} + {e['u2x']}))"
+        e["szz"] = f"({lam}*({e['u1x']} + {e['u2y']}))"
+        # f = -div sigma
+        e["f1"] = f"(-({M2}*{e['u1xx']} + {mu}*{e['u1yy']} + {r(LAM + MU)}*{e['u2xy']}))"
+        e["f2"] = f"(-({mu}*{e['u2xx']} + {M2}*{e['u2yy']} + {r(LAM + MU)}*{e['u1xy']}))"
+        e["gap"] = f"({r(-C0)} + {r(S0)}*{q(4, f'(x - {r(X0)})')})"
+        self.s, self.e = s, e
+
+    def ev(self, name, x, y):
+        from evaluate import safe_eval
+        x = np.asarray(x, float)
+        y = np.asarray(y, float)
+        return np.broadcast_to(safe_eval(self.e[name] if name in self.e else self.s[name], x, y), np.broadcast(x, y).shape).astype(float)
+
+    def u(self, x, y):
+        return np.stack([self.ev("u1", x, y), self.ev("u2", x, y)], -1)
+
+    def grad(self, x, y):
+        return np.stack([np.stack([self.ev("u1x", x, y), self.ev("u1y", x, y)], -1),
+                         np.stack([self.ev("u2x", x, y), self.ev("u2y", x, y)], -1)], -2)
+
+    def sigma4(self, x, y):
+        return np.stack([self.ev(k, x, y) for k in ("sxx", "syy", "szz", "sxy")], -1)
+
+    def traction(self, nx, ny):
+        """expression strings of sigma n for a constant normal (nx, ny)"""
+        e = self.e
+
+        def comb(a, b):
+            parts = []
+            if nx:
+                parts.append(f"{r(nx)}*{a}")
+            if ny:
+                parts.append(f"{r(ny)}*{b}")
+            return " + ".join(parts)
+        return [comb(e["sxx"], e["sxy"]), comb(e["sxy"], e["syy"])]
+
+    # exact contact quantities on Gamma_C (y = 0, 0 <= x <= 1)
+    def contact_exact(self):
+        g, w = np.polynomial.legendre.leggauss(20)
+        tot_n = tot_t = 0.0
+        for a_, b_ in ((0.0, X1), (X1, X0)):
+            xs = a_ + (b_ - a_) * 0.5 * (g + 1)
+            ws = 0.5 * (b_ - a_) * w
+            tot_n += ws @ (-self.ev("syy", xs, 0 * xs))
+            tot_t += ws @ (-self.ev("sxy", xs, 0 * xs))
+        out = dict(normal_force=float(tot_n), tangential_force=float(tot_t), active_x_range=[0.0, X0],
+                   pressure_max=float(P0 * X0 ** 4))
+        if self.F > 0:
+            out.update(stick_x_range=[0.0, X1], slip_x_range=[X1, X0])
+        return out
+
+    def self_test(self, n=50, h=1e-5, seed=1):
+        rng = np.random.default_rng(seed)
+        x, y = rng.uniform(0.01, 0.99, n), rng.uniform(0.01, 0.99, n)
+        err = 0.0
+        for base, dx_, dy_ in (("u1", "u1x", "u1y"), ("u2", "u2x", "u2y"), ("u1x", "u1xx", "u1xy"), ("u1y", "u1xy", "u1yy"),
+                               ("u2x", "u2xx", "u2xy"), ("u2y", "u2xy", "u2yy")):
+            fx = (self.ev(base, x + h, y) - self.ev(base, x - h, y)) / (2 * h)
+            fy = (self.ev(base, x, y + h) - self.ev(base, x, y - h)) / (2 * h)
+            sc = max(np.abs(self.ev(dx_, x, y)).max(), np.abs(self.ev(dy_, x, y)).max(), 1e-3)
+            err = max(err, np.abs(fx - self.ev(dx_, x, y)).max() / sc, np.abs(fy - self.ev(dy_, x, y)).max() / sc)
+        # boundary conditions on y = 0
+        xs = np.linspace(0, 1, 101)
+        z = 0 * xs
+        assert np.allclose(self.ev("syy", xs, z), -self.ev("p", xs, z), atol=1e-12)
+        assert np.allclose(-self.ev("sxy", xs, z), self.F * self.ev("p", xs, z) * self.ev("psi", xs, z), atol=1e-12)
+        gapres = self.ev("gap", xs, z) - (-self.ev("u2", xs, z))
+        assert (gapres >= -1e-15).all() and np.all(gapres[xs < X0] < 1e-15) and np.all(gapres[xs > X0] > 0)
+        if self.F > 0:
+            ut = self.ev("u1", xs, z)
+            assert np.all(np.abs(ut[xs <= X1]) < 1e-15) and np.all(ut[(xs > X1) & (xs < X0)] < 0)
+        return err
