@@ -50,6 +50,17 @@ def safe_eval(expr, x, y):
     return eval(expr.replace("^", "**"), env)
 
 
+def vec_data(spec, xs):
+    """[a, b] with numbers or expression strings -> values (q, 2) at the points xs (q, 2)."""
+    cols = []
+    for v in spec:
+        if isinstance(v, str):
+            cols.append(np.broadcast_to(safe_eval(v, xs[:, 0], xs[:, 1]), (len(xs),)).astype(float))
+        else:
+            cols.append(np.full(len(xs), float(v)))
+    return np.stack(cols, axis=1)
+
+
 class Fixture:
     def __init__(self, path, scene):
         self.scene = scene
@@ -349,13 +360,14 @@ class Fixture:
             entry = dict(kind=bd["kind"], edges=int(len(idx)))
             if bd["kind"] == "dirichlet":
                 F = self.force(idx)
-                uD = np.array(bd["displacement"], float)
+                spec = bd["displacement"]
                 entry.update(force=[float(F[0]), float(F[1])],
-                             dirichlet_max=self.boundary_max(idx, lambda xs, d, u, S: np.abs(u - uD).max(axis=1)))
+                             dirichlet_max=self.boundary_max(idx, lambda xs, d, u, S: np.abs(u - vec_data(spec, xs)).max(axis=1)))
             elif bd["kind"] == "neumann":
-                tN = np.array(bd["traction"], float)
+                spec = bd["traction"]
                 entry.update(neumann_max=self.boundary_max(
-                    idx, lambda xs, d, u, S: np.linalg.norm(self._traction(S, d) / np.linalg.norm(d, axis=1)[:, None] - tN, axis=1)))
+                    idx, lambda xs, d, u, S: np.linalg.norm(self._traction(S, d) / np.linalg.norm(d, axis=1)[:, None]
+                                                            - vec_data(spec, xs), axis=1)))
             elif bd["kind"] == "contact":
                 entry.update(self.contact_report(bd, idx, delta, slip_rel_tol))
                 out["contact"] = bd["name"]
