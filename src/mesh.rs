@@ -516,7 +516,11 @@ fn merge_copies(
     for &(k, i) in &order {
         for dx in -1..=1 {
             for dy in -1..=1 {
-                let nk = (k.0 + dx, k.1 + dy);
+                // Keys saturate for huge coordinates; skip neighbours beyond the range.
+                let (Some(kx), Some(ky)) = (k.0.checked_add(dx), k.1.checked_add(dy)) else {
+                    continue;
+                };
+                let nk = (kx, ky);
                 let start = order.partition_point(|e| e.0 < nk);
                 for &(k2, j) in &order[start..] {
                     if k2 != nk {

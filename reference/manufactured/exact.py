@@ -3,17 +3,18 @@ t = (1,0), so u_n = -u_y, u_t = u_x, sigma_n = sigma_yy, sigma_t = -sigma_xy on 
 
     u_x = w(x) + y m(x) + y^2 A(x,y),      u_y = c0 + y v(x) + y^2 B(x,y)
 
-with p(x) = P0 max(x0 - x, 0)^4 (contact pressure), v = -(p + lam w')/(lam + 2 mu), so that on y = 0
-sigma_yy = -p and sigma_xy = mu m.  Frictionless: m = 0.  Coulomb (coefficient F): w = -W0 max(x - x1, 0)^4
-(slip u_t < 0 on x1 < x < x0, stick u_t = 0 on x < x1), m = -F p psi / mu with psi = 1 on the slip zone and
+with p(x) = P0 max(x0 - x, 0)^3 (contact pressure), v = -(p + lam w')/(lam + 2 mu), so that on y = 0
+sigma_yy = -p and sigma_xy = mu m.  Frictionless: m = 0.  Coulomb (coefficient F): w = -W0 max(x - x1, 0)^4 max(x2 - x, 0)^4
+with x2 = 1 (slip u_t < 0 on x1 < x < x0, stick u_t = 0 on x < x1; the same w is used without friction), m = -F p psi / mu with psi = 1 on the slip zone and
 psi = 1 - C max(x1 - x, 0)^4 / x1^4 in [1/2, 1] in the stick zone, so sigma_t = F p psi (= F|sigma_n| where it
-slips, strictly inside the cone where it sticks except at x1).  Gap g(x) = -c0 + S0 max(x - x0, 0)^4: active
+slips, strictly inside the cone where it sticks except at x1).  Gap g(x) = -c0 + S0 max(x - x0, 0)^2: active
 (u_n = g, sigma_n < 0) on 0 <= x < x0, inactive (u_n < g, sigma_n = 0) on x0 < x <= 1.
 
 Everything (u, sigma, body force f = -div sigma, boundary data) is built as expression strings in the
 scene-file language of DESIGN.md §7 (max, sin, cos, ^), and evaluated from the same strings in numpy, so
 the scene data and the reference solution cannot disagree.  self_test() checks the derivatives by
-finite differences.  The functions are C^3 (piecewise polynomial in x across x0, x1).
+finite differences.  u is C^2 across x = x0 (p is C^2) and C^3 across x = x1, u in H^{3.5-}: enough for
+the optimal rates of P1 and P2; f = -div sigma is continuous.
 """
 import numpy as np
 
@@ -22,9 +23,10 @@ MU = E / (2 * (1 + NU))
 LAM = E * NU / ((1 + NU) * (1 - 2 * NU))
 X0, X1 = 0.6, 0.3
 C0 = -0.01
-P0 = 10.0 / X0 ** 4        # p(0) = 10
-W0 = 0.005 / (X0 - X1) ** 4  # |w(x0)| = 0.005
-S0 = 0.005 / (1 - X0) ** 4   # extra gap 0.005 at x = 1
+X2 = 1.0
+P0 = 10.0 / X0 ** 3                                  # p(0) = 10
+W0 = 0.0005 / ((X2 - X1) / 2) ** 8                   # max |w| = 0.0005 (at x = (x1 + x2)/2)
+S0 = 0.005 / (1 - X0) ** 2                           # extra gap 0.005 at x = 1
 ALPHA, BETA = 0.002, 0.002
 CPSI = 0.5
 
@@ -44,13 +46,17 @@ class Exact:
         c = f"({r(X1)} - x)"
         L, M2 = r(LAM), r(LAM + 2 * MU)
         s = {}
-        s["p"] = f"{r(P0)}*{q(4, b)}"
-        s["p1"] = f"(-{r(4 * P0)}*{q(3, b)})"
-        s["p2"] = f"{r(12 * P0)}*{q(2, b)}"
-        s["w"] = f"(-{r(W0)}*{q(4, a)})"
-        s["w1"] = f"(-{r(4 * W0)}*{q(3, a)})"
-        s["w2"] = f"(-{r(12 * W0)}*{q(2, a)})"
-        s["w3"] = f"(-{r(24 * W0)}*{q(1, a)})"
+        s["p"] = f"{r(P0)}*{q(3, b)}"
+        s["p1"] = f"(-{r(3 * P0)}*{q(2, b)})"
+        s["p2"] = f"{r(6 * P0)}*{q(1, b)}"
+        d = f"({r(X2)} - x)"
+        A0, A1, A2, A3 = q(4, a), f"4*{q(3, a)}", f"12*{q(2, a)}", f"24*{q(1, a)}"
+        B0, B1, B2, B3 = q(4, d), f"(-4*{q(3, d)})", f"12*{q(2, d)}", f"(-24*{q(1, d)})"
+        w0 = r(W0)
+        s["w"] = f"(-{w0}*{A0}*{B0})"
+        s["w1"] = f"(-{w0}*({A1}*{B0} + {A0}*{B1}))"
+        s["w2"] = f"(-{w0}*({A2}*{B0} + 2*{A1}*{B1} + {A0}*{B2}))"
+        s["w3"] = f"(-{w0}*({A3}*{B0} + 3*{A2}*{B1} + 3*{A1}*{B2} + {A0}*{B3}))"
         k = CPSI / X1 ** 4
         s["psi"] = f"(1 - {r(k)}*{q(4, c)})"
         s["psi1"] = f"({r(4 * k)}*{q(3, c)})"
@@ -91,7 +97,7 @@ class Exact:
         # f = -div sigma
         e["f1"] = f"(-({M2}*{e['u1xx']} + {mu}*{e['u1yy']} + {r(LAM + MU)}*{e['u2xy']}))"
         e["f2"] = f"(-({mu}*{e['u2xx']} + {M2}*{e['u2yy']} + {r(LAM + MU)}*{e['u1xy']}))"
-        e["gap"] = f"({r(-C0)} + {r(S0)}*{q(4, f'(x - {r(X0)})')})"
+        e["gap"] = f"({r(-C0)} + {r(S0)}*{q(2, f'(x - {r(X0)})')})"
         self.s, self.e = s, e
 
     def ev(self, name, x, y):
@@ -133,7 +139,7 @@ class Exact:
             tot_n += ws @ (-self.ev("syy", xs, 0 * xs))
             tot_t += ws @ (-self.ev("sxy", xs, 0 * xs))
         out = dict(normal_force=float(tot_n), tangential_force=float(tot_t), active_x_range=[0.0, X0],
-                   pressure_max=float(P0 * X0 ** 4))
+                   pressure_max=float(P0 * X0 ** 3))
         if self.F > 0:
             out.update(stick_x_range=[0.0, X1], slip_x_range=[X1, X0])
         return out
