@@ -6,6 +6,7 @@
 
 pub mod element;
 pub mod error;
+pub mod estimate;
 pub mod expr;
 pub mod inspect;
 pub mod mesh;

@@ -161,7 +161,8 @@ pub struct Estimate {
 }
 
 /// Norm/weight preset of the functional (DESIGN.md §3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Norm {
     Energy,
     Robust,
