@@ -66,6 +66,8 @@ class Fixture:
         self.scene = scene
         d = vtuio.read(path)
         self.X = d["points"]
+        self.points_in_file = d["points_in_file"]
+        self.merge_jump = d["merge_jump"]
         self.cells = d["cells"].astype(np.int64)
         self.quad = self.cells.shape[1] == 6
         f = scene["fields"]
@@ -418,7 +420,8 @@ class Fixture:
         c = self.cells[:, :3]
         e = np.unique(np.sort(np.vstack([c[:, [0, 1]], c[:, [1, 2]], c[:, [2, 0]]]), axis=1), axis=0)
         L = np.linalg.norm(self.X[e[:, 0]] - self.X[e[:, 1]], axis=1)
-        return dict(points=int(self.X.shape[0]), cells=int(self.cells.shape[0]),
+        return dict(points=int(self.X.shape[0]), points_in_file=self.points_in_file,
+                    merged_value_jump=self.merge_jump, cells=int(self.cells.shape[0]),
                     cell_type="triangle6" if self.quad else "triangle",
                     boundary_edges=int(len(self.edges)), line_cells_in_file=self.has_lines,
                     h_min=float(L.min()), h_max=float(L.max()), orientation_ccw=self.orientation_ok)

@@ -25,15 +25,15 @@ CASES = {
     "hertz_skfem_p1": dict(
         lib="skfem", degree=1, nu=0.28, mesh=MESH_A, sel="tag", upper=True,
         file=dict(displacement="u", ucomp=2, stress="stress", layout="xx,yy,xy", write_layout=True,
-                  encoding="zlib", tags=True, cell_stress_name="stress_cell")),
+                  encoding="ascii", tags=True, cell_stress_name="stress_cell")),
     "hertz_skfem_p2": dict(
         lib="skfem", degree=2, nu=0.28, mesh=MESH_A, sel="where", upper=False,
         file=dict(displacement="displacement", ucomp=2, stress="stress", layout="xx,yy,xy", write_layout=True,
-                  encoding="ascii", tags=False)),
+                  encoding="zlib", tags=False)),
     "hertz_skfem_p2_nu05": dict(
         lib="skfem", degree=2, nu=0.5, mixed=True, mesh=MESH_A, sel="tag", upper=False,
         file=dict(displacement="U", ucomp=2, stress="sigma", layout="xx,yy,zz,xy", write_layout=False,
-                  encoding="raw", tags=True)),
+                  encoding="zlib", tags=True)),
     "hertz_ngsolve_p1": dict(
         lib="ngsolve", degree=1, nu=0.28, mesh=MESH_A, sel="where", upper=True,
         file=dict(displacement="displacement", ucomp=3, stress="stress", layout="xx,yy,zz,xy", write_layout=False,
@@ -46,10 +46,14 @@ CASES = {
         lib="ngsolve", degree=2, nu=0.5, mixed=True, mesh=MESH_A, sel="where", upper=False,
         file=dict(displacement="U", ucomp=2, stress="stress", layout="xx,yy,xy", write_layout=True,
                   encoding="uint64", tags=False, write_lines=False)),
+    "hertz_ngsolve_p1_vtkoutput": dict(
+        lib="ngsolve", degree=1, nu=0.28, mesh=MESH_A, sel="where", upper=False,
+        file=dict(displacement="displacement", ucomp=2, stress="stress", layout="xx,yy,zz,xy", write_layout=True,
+                  encoding="ngsolve-vtkoutput", tags=False, write_lines=False)),
     "hertz_skfem_p1_coulomb": dict(
         lib="skfem", degree=1, nu=0.28, friction=0.4, mesh=MESH_B, sel="tag", upper=False,
         file=dict(displacement="u", ucomp=2, stress="stress", layout="xx,yy,xy", write_layout=False,
-                  encoding="zlib", tags=True)),
+                  encoding="raw", tags=True)),
     "hertz_ngsolve_p1_coulomb": dict(
         lib="ngsolve", degree=1, nu=0.28, friction=0.4, mesh=MESH_B, sel="where", upper=True,
         file=dict(displacement="displacement", ucomp=3, stress="stress", layout="xx,yy,zz,xy", write_layout=True,
@@ -67,6 +71,8 @@ ENCODING_TEXT = {
     "ascii": "meshio 5.3.5, ascii (12 significant digits)",
     "vtk-appended-raw": "VTK 9 vtkXMLUnstructuredGridWriter, appended raw binary, uncompressed",
     "vtk-appended-zlib": "VTK 9 vtkXMLUnstructuredGridWriter, appended raw binary + zlib",
+    "ngsolve-vtkoutput": ("NGSolve's own VTKOutput (subdivision 0): appended raw binary, *exploded* mesh (every "
+                          "triangle has its own 3 points; coincident points carry identical values)"),
 }
 
 
@@ -186,6 +192,8 @@ def make_one(name, outdir, results):
         sol = PR.solve_ngsolve(tm, c["degree"], c["nu"], friction=c.get("friction", 0.0), mixed=c.get("mixed", False))
     cfg = dict(c["file"], delta=1e-8 * abs(PR.UD[1]), cell_stress=sol["cell_stress"],
                command=f"reference/hertz/make.py --only {name}")
+    if c["file"]["encoding"] == "ngsolve-vtkoutput":
+        cfg["write_callback"] = PR.ngsolve_vtkoutput(sol, (c["file"]["displacement"], c["file"]["stress"]))
     scene = hertz_scene(c)
     info = dict(sol["info"], mesh_parameters=c["mesh"])
     holder = {}

@@ -64,4 +64,19 @@ def solve_ngsolve(tm, degree, nu, friction=0.0, mixed=False, kappa_final=1e8, ep
                 reaction_top=dict(P=r["P"], Fx=r["Fx_top"]),
                 contact_force_penalty=r["P_contact"], tangential_force_penalty=r["Ft_contact"],
                 time_s=time.time() - t0)
-    return dict(nodes=nodes, cells=cells, lines=lines, tags=tm.btag, U=U, S4=S4, cell_stress=None, info=info, raw=r)
+    return dict(nodes=nodes, cells=cells, lines=lines, tags=tm.btag, U=U, S4=S4, cell_stress=None, info=info, raw=r,
+                solver=s)
+
+
+def ngsolve_vtkoutput(sol, names=("displacement", "stress")):
+    """writer callback: NGSolve's own VTKOutput (exploded mesh, appended raw binary), subdivision 0, the
+    displacement GridFunction and the projected stress (xx, yy, zz, xy)."""
+    import ngsolve as ngs
+    s = sol["solver"]
+
+    def write(stem):
+        sg = s.stress_gf()
+        u = s.gfu.components[0] if s.mixed else s.gfu
+        ngs.VTKOutput(ma=s.mesh, coefs=[u, ngs.CF(tuple(sg))], names=list(names), filename=str(stem),
+                      subdivision=0).Do()
+    return write

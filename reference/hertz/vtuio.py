@@ -39,7 +39,10 @@ def write(path, nodes, cells, lines, point_data, cell_data_tri=None, tag_name=No
         return _write_vtk(path, pts, blocks, point_data, cd, compress=encoding.endswith("zlib"))
     mesh = meshio.Mesh(pts, blocks, point_data=point_data, cell_data=cd)
     if encoding == "ascii":
-        meshio.vtu.write(path, mesh, binary=False)
+        import contextlib
+        import io
+        with contextlib.redirect_stderr(io.StringIO()):  # meshio's "ascii only for debugging" notice
+            meshio.vtu.write(path, mesh, binary=False)
     elif encoding == "raw":
         meshio.vtu.write(path, mesh, binary=True, compression=None)
     elif encoding == "uint64":
@@ -87,16 +90,54 @@ def _write_vtk(path, pts, blocks, point_data, cell_data, compress):
         raise RuntimeError("vtk writer failed")
 
 
+def merge_points(P, rtol=1e-12):
+    """Union of points closer than rtol * diameter (exploded meshes from NGSolve's VTKOutput evaluate the
+    same vertex once per element, identical up to round-off).  Returns (index of the kept copy per
+    merged point, map file point -> merged point); the first copy in file order is kept."""
+    from scipy.spatial import cKDTree
+    diam = float(np.ptp(P, axis=0).max()) if len(P) else 1.0
+    pairs = cKDTree(P).query_pairs(rtol * diam, output_type="ndarray")
+    parent = np.arange(len(P))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    for a, b in pairs:
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(i) for i in range(len(P))])
+    keep, inv = np.unique(roots, return_inverse=True)
+    return keep, inv.ravel()
+
+
 def read(path):
+    """Read a VTU; coincident points (within 1e-12 of the diameter) are merged: NGSolve's VTKOutput writes
+    an exploded mesh, one copy of every vertex per cell.  Merged copies must carry the same point data
+    (to 1e-10 relative); the first copy in file order is kept."""
     m = meshio.read(path)
-    out = dict(points=m.points[:, :2].copy(), point_data=dict(m.point_data))
+    P = m.points[:, :2]
+    first, inv = merge_points(P)
+    pdata = {}
+    jump = 0.0
+    for k, v in m.point_data.items():
+        v = np.asarray(v, dtype=float)
+        if v.size:
+            d = float(np.abs(v - v[first][inv]).max())
+            if d > 1e-10 * max(float(np.abs(v).max()), 1e-300):
+                raise ValueError(f"{path}: coincident points carry different values of {k} (max {d})")
+            jump = max(jump, d)
+        pdata[k] = v[first]
+    out = dict(points=P[first].copy(), point_data=pdata, points_in_file=int(len(P)), merge_jump=jump)
     tri = [(i, c) for i, c in enumerate(m.cells) if c.type in ("triangle", "triangle6")]
     lin = [(i, c) for i, c in enumerate(m.cells) if c.type in ("line", "line3")]
     assert len(tri) == 1 and len(lin) <= 1
-    out["cells"] = tri[0][1].data
+    out["cells"] = inv[tri[0][1].data]
     out["cell_data"] = {k: v[tri[0][0]] for k, v in m.cell_data.items()}
     if lin:
-        out["lines"] = lin[0][1].data
+        out["lines"] = inv[lin[0][1].data]
         out["line_data"] = {k: v[lin[0][0]] for k, v in m.cell_data.items()}
     else:
         out["lines"] = None

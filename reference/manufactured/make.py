@@ -224,7 +224,7 @@ def readme(name, c, exp):
 
 Manufactured smooth contact problem on the unit square (reference/manufactured/exact.py), E = 1000,
 nu = 0.3, plane strain, {'Coulomb friction ' + str(fr) if fr else 'frictionless'}. Gamma_C = bottom (normal = body, gap given as an
-expression): active for 0 <= x < 0.6 (pressure p = P0 (0.6 - x)^4), inactive for 0.6 < x <= 1""" + (
+expression): active for 0 <= x < 0.6 (pressure p = P0 (0.6 - x)^3), inactive for 0.6 < x <= 1""" + (
         ", stick for x < 0.3, slip for 0.3 < x < 0.6" if fr else "") + f""".
 Top: Dirichlet (exact u); left/right: Neumann (exact traction); body force f = -div sigma; all data are
 expressions in scene.toml.  Mesh: {c['n']} x {c['n']} squares cut along the diagonal, P{c['degree']}.

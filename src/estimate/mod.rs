@@ -133,3 +133,7 @@ pub struct Estimate {
     #[serde(skip)]
     pub cells: CellTerms,
 }
+
+pub mod boundary;
+pub mod interior;
+pub mod material;
