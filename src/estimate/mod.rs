@@ -137,3 +137,219 @@ pub struct Estimate {
 pub mod boundary;
 pub mod interior;
 pub mod material;
+
+use crate::mesh::Mesh;
+use crate::problem::BoundaryEdge;
+use crate::read::scene::Scene;
+
+/// Relative size below which a violation counts as round-off (of max |u_h| for displacement
+/// checks, of max |σ_h| for stress checks) when deciding whether a hypothesis holds.
+pub const ADMISSIBLE_TOLERANCE: f64 = 1e-10;
+
+/// What [`run`] needs.
+pub struct Input<'a> {
+    pub mesh: &'a Mesh,
+    pub scene: &'a Scene,
+    /// Displacement per mesh point.
+    pub u: &'a [[f64; 2]],
+    /// Stress per mesh point, row-major `[xx, xy, yx, yy]`.
+    pub sigma: &'a [[f64; 4]],
+    /// Every boundary edge with its condition.
+    pub edges: &'a [BoundaryEdge],
+    pub norm: Norm,
+    /// Whether σ_h is symmetric by construction (a symmetric layout in the file).
+    pub symmetric_stress: bool,
+}
+
+/// Evaluates F and everything around it (DESIGN.md §3, §5, §6).
+pub fn run(inp: &Input) -> Estimate {
+    let elastic = material::Elastic::new(&inp.scene.material);
+    let length_scale = inp
+        .scene
+        .estimate
+        .length_scale
+        .unwrap_or_else(|| diameter(&inp.mesh.points) / std::f64::consts::PI);
+    let w_d = elastic.equilibrium_weight(inp.norm, length_scale);
+    let interior = interior::interior(&interior::Input {
+        mesh: inp.mesh,
+        u: inp.u,
+        sigma: inp.sigma,
+        elastic,
+        norm: inp.norm,
+        w_d,
+        body_force: inp.scene.body_force.as_ref(),
+    });
+    let boundary = boundary::boundary(&boundary::Input {
+        mesh: inp.mesh,
+        u: inp.u,
+        sigma: inp.sigma,
+        scene: inp.scene,
+        edges: inp.edges,
+    });
+    let cells = CellTerms {
+        constitutive: interior.constitutive,
+        equilibrium: interior.equilibrium,
+        complementarity: boundary.complementarity,
+        friction: boundary.friction,
+    };
+    let sum = |v: &[f64]| v.iter().sum::<f64>();
+    let mut functional = Terms {
+        total: 0.0,
+        constitutive: sum(&cells.constitutive),
+        equilibrium: sum(&cells.equilibrium),
+        complementarity: sum(&cells.complementarity),
+        friction: sum(&cells.friction),
+    };
+    functional.total = functional.constitutive
+        + functional.equilibrium
+        + functional.complementarity
+        + functional.friction;
+    let energy = sum(&interior.energy);
+    let eta = (functional.total >= 0.0).then(|| functional.total.sqrt());
+    let relative = (functional.total >= 0.0 && energy > 0.0).then(|| (functional.total / energy).sqrt());
+    let bound = bound(inp, &functional, energy, &boundary.admissibility);
+    Estimate {
+        norm: inp.norm,
+        functional,
+        eta,
+        energy,
+        relative,
+        length_scale,
+        admissibility: boundary.admissibility,
+        contact: boundary.contact,
+        bound,
+        cells,
+    }
+}
+
+/// The admissibility checks that fail, as sentences (DESIGN.md §5).
+pub fn failed_checks(
+    adm: &Admissibility,
+    u: &[[f64; 2]],
+    sigma: &[[f64; 4]],
+    frictional: bool,
+) -> Vec<String> {
+    let umax = u.iter().fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+    let smax = sigma
+        .iter()
+        .fold(0.0f64, |m, s| s.iter().fold(m, |m, v| m.max(v.abs())));
+    let (tu, ts) = (ADMISSIBLE_TOLERANCE * umax, ADMISSIBLE_TOLERANCE * smax);
+    let mut out = Vec::new();
+    let mut check = |v: &Violation, tol: f64, what: &str| {
+        if v.max > tol {
+            out.push(format!("{what} (max {:.3e})", v.max));
+        }
+    };
+    check(&adm.penetration, tu, "u_h penetrates the obstacle: u_n > g");
+    check(&adm.dirichlet, tu, "u_h misses the Dirichlet data");
+    check(&adm.tension, ts, "σ_h is tensile on the contact boundary: σ_n > 0");
+    check(
+        &adm.cone_violation,
+        ts,
+        if frictional {
+            "σ_h leaves the friction cone: |σ_t| > 𝔉|σ_n|"
+        } else {
+            "σ_h has tangential traction on frictionless contact: σ_t ≠ 0"
+        },
+    );
+    check(&adm.neumann, ts, "σ_h misses the traction data: σn ≠ t");
+    out
+}
+
+/// The guaranteed bound of DESIGN.md §6 and the hypotheses that fail for this pair:
+/// value = ½‖C^{1/2}ε(u_h) − C^{−1/2}σ_h‖² + ⟨u_n − g, σ_n⟩ (the energy-norm constitutive
+/// term plus the complementarity term), an upper bound of ½‖u − u_h‖²_E + ½‖σ − σ_h‖²_A when
+/// every hypothesis holds.
+fn bound(inp: &Input, f: &Terms, energy: f64, adm: &Admissibility) -> Bound {
+    let frictional = inp
+        .scene
+        .boundaries
+        .iter()
+        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
+    let mut failed = Vec::new();
+    if frictional {
+        failed.push(
+            "Coulomb friction: the bound holds for frictionless contact only (DESIGN.md §6)"
+                .to_string(),
+        );
+    }
+    if inp.norm != Norm::Energy {
+        failed.push(format!(
+            "norm = {}: the bound is stated in the energy norm",
+            inp.norm.as_str()
+        ));
+    }
+    failed.extend(failed_checks(adm, inp.u, inp.sigma, frictional));
+    if f.equilibrium > ADMISSIBLE_TOLERANCE * ADMISSIBLE_TOLERANCE * energy {
+        failed.push(format!(
+            "σ_h is not equilibrated: div σ_h + f ≠ 0 (equilibrium term {:.3e})",
+            f.equilibrium
+        ));
+    }
+    if !inp.symmetric_stress {
+        failed.push("σ_h is not symmetric (9-component stress)".to_string());
+    }
+    let value = (inp.norm == Norm::Energy).then_some(f.constitutive + f.complementarity);
+    Bound {
+        guaranteed: failed.is_empty(),
+        value,
+        failed_hypotheses: failed,
+    }
+}
+
+/// The diameter of a point set: the largest distance between two points, over the convex
+/// hull (Andrew's monotone chain), O(n log n).
+pub fn diameter(points: &[[f64; 2]]) -> f64 {
+    let mut p: Vec<[f64; 2]> = points.to_vec();
+    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    p.dedup();
+    if p.len() < 2 {
+        return 0.0;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(p.iter())
+        } else {
+            Box::new(p.iter().rev())
+        };
+        for &q in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    let mut d = 0.0f64;
+    for i in 0..hull.len() {
+        for j in i + 1..hull.len() {
+            d = d.max((hull[i][0] - hull[j][0]).hypot(hull[i][1] - hull[j][1]));
+        }
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diameter_of_a_rectangle_and_a_half_disc() {
+        let pts = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0], [1.0, 0.5], [1.0, 0.0]];
+        assert_eq!(diameter(&pts), 5f64.sqrt());
+        let disc: Vec<[f64; 2]> = (0..=100)
+            .map(|i| {
+                let a = std::f64::consts::PI * (1.0 + i as f64 / 100.0);
+                [a.cos(), 1.0 + a.sin()]
+            })
+            .collect();
+        assert!((diameter(&disc) - 2.0).abs() < 1e-15);
+    }
+}
