@@ -219,7 +219,9 @@ fn zeros(h: impl Fn(f64) -> f64, quadratic: bool) -> Vec<f64> {
         }
         out.retain(|&s| s > 0.0 && s < 1.0);
     } else {
-        let v: Vec<f64> = (0..=SAMPLES).map(|i| h(i as f64 / SAMPLES as f64)).collect();
+        let v: Vec<f64> = (0..=SAMPLES)
+            .map(|i| h(i as f64 / SAMPLES as f64))
+            .collect();
         for i in 0..SAMPLES {
             let (mut lo, mut hi) = (i as f64 / SAMPLES as f64, (i + 1) as f64 / SAMPLES as f64);
             let (vl, vh) = (v[i], v[i + 1]);
@@ -428,15 +430,21 @@ pub fn boundary(inp: &Input) -> Boundary {
                 out.friction[t] += fric;
 
                 for (acc, h) in [
-                    (&mut pen, Box::new(|s: f64| {
-                        let p = q(s);
-                        p.un - p.g
-                    }) as Box<dyn Fn(f64) -> f64>),
+                    (
+                        &mut pen,
+                        Box::new(|s: f64| {
+                            let p = q(s);
+                            p.un - p.g
+                        }) as Box<dyn Fn(f64) -> f64>,
+                    ),
                     (&mut ten, Box::new(|s: f64| q(s).sn)),
-                    (&mut cone, Box::new(|s: f64| {
-                        let p = q(s);
-                        p.st.abs() - fr * p.sn.abs()
-                    })),
+                    (
+                        &mut cone,
+                        Box::new(|s: f64| {
+                            let p = q(s);
+                            p.st.abs() - fr * p.sn.abs()
+                        }),
+                    ),
                 ] {
                     let (v, s) = maximum(&h);
                     if v.is_finite() {
@@ -446,7 +454,11 @@ pub fn boundary(inp: &Input) -> Boundary {
 
                 if e.line != NONE {
                     let mut best = (ContactState::Separated, -1.0);
-                    for st in [ContactState::Separated, ContactState::Stick, ContactState::Slip] {
+                    for st in [
+                        ContactState::Separated,
+                        ContactState::Stick,
+                        ContactState::Slip,
+                    ] {
                         let len: f64 = edge_pieces
                             .iter()
                             .filter(|p| p.state == st)
@@ -474,15 +486,20 @@ pub fn boundary(inp: &Input) -> Boundary {
                 pieces.push((b, ei, edge_pieces));
             }
             Condition::Dirichlet(b) => {
-                let BoundaryKind::Dirichlet { displacement } = &inp.scene.boundaries[b].kind
-                else {
+                let BoundaryKind::Dirichlet { displacement } = &inp.scene.boundaries[b].kind else {
                     continue;
                 };
                 let mismatch = |a: &At| {
                     let d = eval2(displacement, a.x);
                     (a.u[0] - d[0]).hypot(a.u[1] - d[1])
                 };
-                check(&f, &mut dir, rule, &mismatch, inp.mesh.triangle_cell[t] as usize);
+                check(
+                    &f,
+                    &mut dir,
+                    rule,
+                    &mismatch,
+                    inp.mesh.triangle_cell[t] as usize,
+                );
             }
             Condition::Neumann(_) | Condition::Free => {
                 let data = match e.condition {
@@ -497,7 +514,13 @@ pub fn boundary(inp: &Input) -> Boundary {
                     let d = data.map_or([0.0; 2], |t| eval2(t, a.x));
                     (tr[0] - d[0]).hypot(tr[1] - d[1])
                 };
-                check(&f, &mut neu, rule, &mismatch, inp.mesh.triangle_cell[t] as usize);
+                check(
+                    &f,
+                    &mut neu,
+                    rule,
+                    &mismatch,
+                    inp.mesh.triangle_cell[t] as usize,
+                );
             }
         }
     }
@@ -553,8 +576,11 @@ fn intervals(inp: &Input, pieces: &[(usize, usize, Vec<Piece>)]) -> Vec<ContactI
             let k = e.local as usize;
             (tri[k], tri[(k + 1) % 3])
         };
-        let starts: std::collections::HashMap<u32, usize> =
-            mine.iter().enumerate().map(|(i, p)| (ends(p).0, i)).collect();
+        let starts: std::collections::HashMap<u32, usize> = mine
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (ends(p).0, i))
+            .collect();
         let ending: std::collections::HashSet<u32> = mine.iter().map(|p| ends(p).1).collect();
         let mut used = vec![false; mine.len()];
         let mut order = Vec::with_capacity(mine.len());
@@ -621,7 +647,10 @@ mod tests {
         let z = zeros(|s| (s - 0.25) * (s - 0.6), true);
         let mut z = z;
         z.sort_by(f64::total_cmp);
-        assert!((z[0] - 0.25).abs() < 1e-15 && (z[1] - 0.6).abs() < 1e-15, "{z:?}");
+        assert!(
+            (z[0] - 0.25).abs() < 1e-15 && (z[1] - 0.6).abs() < 1e-15,
+            "{z:?}"
+        );
         assert_eq!(zeros(|s| 2.0 * s - 1.0, true), vec![0.5]);
         assert!(zeros(|s| s * s + 1.0, true).is_empty());
         assert!(zeros(|_| 0.0, true).is_empty());

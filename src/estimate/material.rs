@@ -29,12 +29,7 @@ impl Elastic {
         let c = 1.0 / (2.0 * self.mu / self.lambda + 2.0);
         let s = 0.5 / self.mu;
         let tr = t[0] + t[3];
-        [
-            s * (t[0] - c * tr),
-            s * t[1],
-            s * t[2],
-            s * (t[3] - c * tr),
-        ]
+        [s * (t[0] - c * tr), s * t[1], s * t[2], s * (t[3] - c * tr)]
     }
 
     /// Cε = 2μ ε + λ tr(ε) I (finite λ only).
@@ -149,7 +144,10 @@ mod tests {
             lambda: 5.0,
         };
         let e = [1.0, 0.0, 0.0, 1.0];
-        assert_eq!(m.constitutive_density(Norm::Energy, e), 3.0 * 2.0 + 0.5 * 5.0 * 4.0);
+        assert_eq!(
+            m.constitutive_density(Norm::Energy, e),
+            3.0 * 2.0 + 0.5 * 5.0 * 4.0
+        );
         assert_eq!(m.constitutive_density(Norm::Robust, e), 6.0);
         assert_eq!(m.constitutive_density(Norm::Seed, e), 1.0);
         assert_eq!(m.energy_density(Norm::Seed, e), 6.0);

@@ -206,7 +206,8 @@ pub fn run(inp: &Input) -> Estimate {
         + functional.friction;
     let energy = sum(&interior.energy);
     let eta = (functional.total >= 0.0).then(|| functional.total.sqrt());
-    let relative = (functional.total >= 0.0 && energy > 0.0).then(|| (functional.total / energy).sqrt());
+    let relative =
+        (functional.total >= 0.0 && energy > 0.0).then(|| (functional.total / energy).sqrt());
     let bound = bound(inp, &functional, energy, &boundary.admissibility);
     Estimate {
         norm: inp.norm,
@@ -229,7 +230,9 @@ pub fn failed_checks(
     sigma: &[[f64; 4]],
     frictional: bool,
 ) -> Vec<String> {
-    let umax = u.iter().fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+    let umax = u
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
     let smax = sigma
         .iter()
         .fold(0.0f64, |m, s| s.iter().fold(m, |m, v| m.max(v.abs())));
@@ -242,7 +245,11 @@ pub fn failed_checks(
     };
     check(&adm.penetration, tu, "u_h penetrates the obstacle: u_n > g");
     check(&adm.dirichlet, tu, "u_h misses the Dirichlet data");
-    check(&adm.tension, ts, "σ_h is tensile on the contact boundary: σ_n > 0");
+    check(
+        &adm.tension,
+        ts,
+        "σ_h is tensile on the contact boundary: σ_n > 0",
+    );
     check(
         &adm.cone_violation,
         ts,
@@ -342,7 +349,14 @@ mod tests {
 
     #[test]
     fn diameter_of_a_rectangle_and_a_half_disc() {
-        let pts = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0], [1.0, 0.5], [1.0, 0.0]];
+        let pts = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [0.0, 1.0],
+            [1.0, 0.5],
+            [1.0, 0.0],
+        ];
         assert_eq!(diameter(&pts), 5f64.sqrt());
         let disc: Vec<[f64; 2]> = (0..=100)
             .map(|i| {
@@ -353,3 +367,6 @@ mod tests {
         assert!((diameter(&disc) - 2.0).abs() < 1e-15);
     }
 }
+
+#[cfg(test)]
+mod exact_tests;
