@@ -3,6 +3,7 @@
 
 mod cli;
 
+
 use std::process::ExitCode;
 
 use clap::Parser;

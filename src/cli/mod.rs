@@ -1,5 +1,7 @@
 //! Command line: arguments, the run of each subcommand, and exit codes (DESIGN.md §8).
 
+mod estimate;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -29,6 +31,9 @@ pub enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Evaluate the FOSLS functional of a solution: global estimate, indicators per cell,
+    /// admissibility and the contact zone (DESIGN.md §3–§8).
+    Estimate(EstimateArgs),
     /// Rewrite a VTU file as binary zlib-compressed VTU (appended raw, or inline base64).
     Convert {
         /// The VTU file to read.
@@ -41,10 +46,66 @@ pub enum Command {
     },
 }
 
+/// Where a field comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Source {
+    /// Use the file's field when it is conforming, reconstruct otherwise.
+    Auto,
+    /// Use the file's field as it is.
+    File,
+    /// Rebuild the field from the other one.
+    Reconstruct,
+}
+
+/// Norm preset (overrides the scene's `[estimate] norm`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum NormArg {
+    Energy,
+    Robust,
+    Seed,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct EstimateArgs {
+    /// The solution (VTU).
+    pub file: PathBuf,
+    /// The scene (TOML); default: `<file stem>.toml` beside the file, else `scene.toml` there.
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// Write the report as JSON to this file (`-` for standard output).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the mesh with per-cell indicators and contact states as VTU.
+    #[arg(long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Norm preset (default: the scene's, else energy; robust at ν = 0.5).
+    #[arg(long, value_enum)]
+    pub norm: Option<NormArg>,
+    /// Where the stress comes from.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub stress: Source,
+    /// Where the displacement comes from.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub displacement: Source,
+    /// Mark cells for refinement by Dörfler's bulk criterion with parameter θ ∈ (0, 1].
+    #[arg(long, value_name = "θ")]
+    pub mark: Option<f64>,
+    /// Exit with status 1 when the relative error exceeds X.
+    #[arg(long, value_name = "X")]
+    pub fail_above: Option<f64>,
+    /// Exit with status 1 when an admissibility check fails.
+    #[arg(long)]
+    pub strict: bool,
+    /// Print nothing but errors (and what --json - asks for).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
 /// Runs the command; `Ok(code)` for completed runs, `Err` for bad input or usage (exit 2).
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Inspect { file, json, quiet } => inspect_file(&file, json.as_deref(), quiet),
+        Command::Estimate(args) => estimate::run(&args),
         Command::Convert {
             input,
             output,
@@ -64,7 +125,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
 }
 
 /// Refuses output paths that would overwrite the input.
-fn check_output(input: &Path, output: &Path) -> Result<(), Error> {
+pub(crate) fn check_output(input: &Path, output: &Path) -> Result<(), Error> {
     let same = match (input.canonicalize(), output.canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
@@ -78,7 +139,7 @@ fn check_output(input: &Path, output: &Path) -> Result<(), Error> {
     Ok(())
 }
 
-fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+pub(crate) fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
     let mut text = serde_json::to_string_pretty(value)?;
     text.push('\n');
     if path == Path::new("-") {

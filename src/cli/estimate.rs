@@ -1,0 +1,235 @@
+//! `fosls estimate`: read → mesh and fields → admissibility and terms → report
+//! (DESIGN.md §1, §8). Exit status 0 done, 1 `--fail-above` exceeded or `--strict` check
+//! failed, 2 bad input or usage.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use fosls::estimate::{self, Estimate};
+use fosls::problem::{self, Stress};
+use fosls::read::scene::{self, Norm, Scene};
+use fosls::{Error, mesh, read, report, topology};
+
+use super::{EstimateArgs, NormArg, Source, check_output, write_json};
+
+/// The scene for `file`: `--scene`, else `<stem>.toml` beside it, else `scene.toml` there.
+fn find_scene(file: &Path, given: Option<&Path>) -> Result<PathBuf, Error> {
+    if let Some(s) = given {
+        return Ok(s.to_path_buf());
+    }
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let stem = file.with_extension("toml");
+    let shared = dir.join("scene.toml");
+    for c in [&stem, &shared] {
+        if c.is_file() {
+            return Ok(c.clone());
+        }
+    }
+    Err(Error::input(
+        file,
+        "scene",
+        format!(
+            "no scene file: neither {} nor {} exists; pass --scene FILE (a TOML file with \
+             [material] youngs_modulus, poisson_ratio and one [[boundary]] per boundary part, \
+             see README \"Scene file\"; `fosls inspect` lists the boundary tags)",
+            stem.display(),
+            shared.display()
+        ),
+    ))
+}
+
+/// A spinner on stderr for one stage, hidden when stderr is not a terminal or with --quiet.
+fn stage(quiet: bool, what: &str) -> indicatif::ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_message(what.to_string());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
+}
+
+/// Runs the estimate command.
+pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
+    for out in [args.json.as_deref(), args.output.as_deref()].into_iter().flatten() {
+        if out != Path::new("-") {
+            check_output(&args.file, out)?;
+        }
+    }
+    if let Some(theta) = args.mark
+        && !(theta > 0.0 && theta <= 1.0)
+    {
+        return Err(Error::Usage(format!("--mark {theta}: θ must lie in (0, 1]")).into());
+    }
+    let mut stages: Vec<(String, f64)> = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &str, stages: &mut Vec<(String, f64)>| {
+        stages.push((name.to_string(), clock.elapsed().as_secs_f64()));
+        clock = Instant::now();
+    };
+
+    let bar = stage(args.quiet, "reading the solution");
+    let vtu = read::vtu::read_vtu(&args.file)?;
+    let data = mesh::build(vtu)?;
+    let topo = topology::build(&data)?;
+    bar.finish_and_clear();
+    lap("read", &mut stages);
+
+    let scene_path = find_scene(&args.file, args.scene.as_deref())?;
+    let scene: Scene = scene::load_scene(&scene_path)?;
+    let norm = match args.norm {
+        None => scene.effective_norm(),
+        Some(NormArg::Energy) if scene.material.is_incompressible() => {
+            return Err(Error::Usage(
+                "--norm energy: ν = 0.5 needs --norm robust or seed (DESIGN.md §3)".into(),
+            )
+            .into());
+        }
+        Some(NormArg::Energy) => Norm::Energy,
+        Some(NormArg::Robust) => Norm::Robust,
+        Some(NormArg::Seed) => Norm::Seed,
+    };
+    let fields = problem::select_fields(&data, &scene)?;
+    let boundaries = problem::classify(&data, &topo, &scene)?;
+    lap("scene and fields", &mut stages);
+
+    if args.displacement == Source::Reconstruct {
+        return Err(Error::Usage(
+            "--displacement reconstruct: displacement reconstruction is not available in this \
+             version"
+                .into(),
+        )
+        .into());
+    }
+    let (sigma, stress_info, symmetric) = match (&fields.stress, args.stress) {
+        (_, Source::Reconstruct) => {
+            return Err(Error::Usage(
+                "--stress reconstruct: stress reconstruction is not available in this version"
+                    .into(),
+            )
+            .into());
+        }
+        (Stress::Nodal { values, name, layout }, _) => (
+            values,
+            report::FieldInfo {
+                source: "file".into(),
+                name: name.clone(),
+                space: format!(
+                    "P{} nodal, continuous (H(div)-conforming), layout {layout}",
+                    data.mesh.degree
+                ),
+                reason: "conforming nodal stress, used as is".into(),
+            },
+            !layout.contains("yx"),
+        ),
+        (Stress::Cell { name, .. }, _) => {
+            return Err(Error::input(
+                &args.file,
+                format!("cell array \"{name}\""),
+                "the stress is cell data (piecewise constant, not H(div)-conforming): it must \
+                 be reconstructed, which this version of fosls cannot do yet",
+            )
+            .into());
+        }
+        (Stress::Absent, _) => {
+            return Err(Error::input(
+                &args.file,
+                "stress",
+                "the file holds no stress field: it must be reconstructed from the \
+                 displacement, which this version of fosls cannot do yet",
+            )
+            .into());
+        }
+    };
+
+    let bar = stage(args.quiet, "evaluating the functional");
+    let est: Estimate = estimate::run(&estimate::Input {
+        mesh: &data.mesh,
+        scene: &scene,
+        u: &fields.displacement,
+        sigma,
+        edges: &boundaries.edges,
+        norm,
+        symmetric_stress: symmetric,
+    });
+    bar.finish_and_clear();
+    lap("evaluate", &mut stages);
+
+    let marked = args.mark.map(|theta| {
+        let eta_sq: Vec<f64> = (0..data.mesh.triangles.len())
+            .map(|t| est.cells.eta_squared(t))
+            .collect();
+        (theta, report::mark::dorfler(&eta_sq, theta))
+    });
+    let mut notes = fields.notes.clone();
+    notes.extend(boundaries.notes.iter().cloned());
+    if let Some(m) = &data.report.merge {
+        notes.push(format!(
+            "{}: {} node copies merged into {} nodes",
+            if m.exploded { "exploded mesh" } else { "pieces" },
+            m.points_in_file,
+            m.points_merged
+        ));
+    }
+    let frictional = scene
+        .boundaries
+        .iter()
+        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
+    let failed = estimate::failed_checks(&est.admissibility, &fields.displacement, sigma, frictional);
+    let run = report::Run {
+        solution: args.file.clone(),
+        scene: scene_path,
+        version: env!("CARGO_PKG_VERSION"),
+        displacement: report::FieldInfo {
+            source: "file".into(),
+            name: fields.displacement_name.clone(),
+            space: format!("P{} nodal", data.mesh.degree),
+            reason: "conforming, used as is".into(),
+        },
+        displacement_degree: data.mesh.degree,
+        stress: stress_info,
+        notes,
+        stages: stages.clone(),
+        boundaries: boundaries
+            .per_boundary
+            .iter()
+            .zip(&scene.boundaries)
+            .map(|(s, b)| (s.name.clone(), b.kind.as_str().to_string(), s.edges, s.length))
+            .collect(),
+        marked: marked.clone(),
+    };
+
+    if let Some(out) = &args.output {
+        report::vtu::write(out, &data, &est, marked.as_ref().map(|m| m.1.as_slice()))?;
+    }
+    if let Some(j) = &args.json {
+        let r = report::json::report(&run, &est, &data.mesh);
+        write_json(j, &r)?;
+    }
+    let to_stdout = args.json.as_deref() == Some(Path::new("-"));
+    if !args.quiet && !to_stdout {
+        print!("{}", report::text::render(&run, &est, &data.mesh));
+    }
+
+    if let Some(x) = args.fail_above {
+        let over = est.relative.is_none_or(|r| r > x);
+        if over {
+            if !args.quiet {
+                eprintln!(
+                    "fosls: relative error {} exceeds --fail-above {x}",
+                    est.relative.map_or("undefined (F < 0)".into(), |r| format!("{r:.3e}"))
+                );
+            }
+            return Ok(ExitCode::from(1));
+        }
+    }
+    if args.strict && !failed.is_empty() {
+        if !args.quiet {
+            eprintln!("fosls: --strict: {}", failed.join("; "));
+        }
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
+}
