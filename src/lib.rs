@@ -12,6 +12,7 @@ pub mod inspect;
 pub mod mesh;
 pub mod quadrature;
 pub mod read;
+pub mod report;
 pub mod topology;
 pub mod write;
 
