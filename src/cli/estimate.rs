@@ -58,10 +58,8 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             check_output(&args.file, out)?;
         }
     }
-    if let Some(theta) = args.mark
-        && !(theta > 0.0 && theta <= 1.0)
-    {
-        return Err(Error::Usage(format!("--mark {theta}: θ must lie in (0, 1]")).into());
+    if let Some(theta) = args.mark {
+        report::mark::check_theta(theta)?;
     }
     let mut stages: Vec<(String, f64)> = Vec::new();
     let mut clock = Instant::now();
@@ -157,11 +155,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     lap("evaluate", &mut stages);
 
-    let marked = args.mark.map(|theta| {
-        let eta_sq: Vec<f64> = (0..data.mesh.triangles.len())
-            .map(|t| est.cells.eta_squared(t))
-            .collect();
-        (theta, report::mark::dorfler(&eta_sq, theta))
+    let marked = args.mark.map(|theta| report::Marking {
+        theta,
+        cells: report::mark::dorfler(&report::eta_squared(&est.cells), theta),
     });
     let mut notes = fields.notes.clone();
     notes.extend(boundaries.notes.iter().cloned());
@@ -191,18 +187,30 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         displacement_degree: data.mesh.degree,
         stress: stress_info,
         notes,
-        stages: stages.clone(),
+        stages: stages
+            .iter()
+            .map(|(name, seconds)| report::Stage {
+                name: name.clone(),
+                seconds: *seconds,
+            })
+            .collect(),
         boundaries: boundaries
             .per_boundary
             .iter()
             .zip(&scene.boundaries)
-            .map(|(s, b)| (s.name.clone(), b.kind.as_str().to_string(), s.edges, s.length))
+            .map(|(s, b)| report::BoundaryInfo {
+                name: s.name.clone(),
+                kind: b.kind.as_str().to_string(),
+                edges: s.edges,
+                length: s.length,
+            })
             .collect(),
-        marked: marked.clone(),
+        marked,
     };
 
     if let Some(out) = &args.output {
-        report::vtu::write(out, &data, &est, marked.as_ref().map(|m| m.1.as_slice()))?;
+        let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
+        report::vtu::write(out, &data, &est, cells)?;
     }
     if let Some(j) = &args.json {
         let r = report::json::report(&run, &est, &data.mesh);
