@@ -10,6 +10,7 @@ pub mod estimate;
 pub mod expr;
 pub mod inspect;
 pub mod mesh;
+pub mod problem;
 pub mod quadrature;
 pub mod read;
 pub mod topology;
