@@ -3,7 +3,6 @@
 
 mod cli;
 
-
 use std::process::ExitCode;
 
 use clap::Parser;

@@ -51,9 +51,22 @@ fn stage(quiet: bool, what: &str) -> indicatif::ProgressBar {
     bar
 }
 
+/// Whether a stress is symmetric to round-off: max |σxy − σyx| ≤ 1e-12 max |σ|.
+fn symmetric(sigma: &[[f64; 4]]) -> bool {
+    let (mut asym, mut max) = (0.0f64, 0.0f64);
+    for s in sigma {
+        asym = asym.max((s[1] - s[2]).abs());
+        max = s.iter().fold(max, |m, v| m.max(v.abs()));
+    }
+    asym <= 1e-12 * max
+}
+
 /// Runs the estimate command.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
-    for out in [args.json.as_deref(), args.output.as_deref()].into_iter().flatten() {
+    for out in [args.json.as_deref(), args.output.as_deref()]
+        .into_iter()
+        .flatten()
+    {
         if out != Path::new("-") {
             check_output(&args.file, out)?;
         }
@@ -109,7 +122,14 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             )
             .into());
         }
-        (Stress::Nodal { values, name, layout }, _) => (
+        (
+            Stress::Nodal {
+                values,
+                name,
+                layout,
+            },
+            _,
+        ) => (
             values,
             report::FieldInfo {
                 source: "file".into(),
@@ -120,7 +140,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
                 ),
                 reason: "conforming nodal stress, used as is".into(),
             },
-            !layout.contains("yx"),
+            symmetric(values),
         ),
         (Stress::Cell { name, .. }, _) => {
             return Err(Error::input(
@@ -164,7 +184,11 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     if let Some(m) = &data.report.merge {
         notes.push(format!(
             "{}: {} node copies merged into {} nodes",
-            if m.exploded { "exploded mesh" } else { "pieces" },
+            if m.exploded {
+                "exploded mesh"
+            } else {
+                "pieces"
+            },
             m.points_in_file,
             m.points_merged
         ));
@@ -173,7 +197,8 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         .boundaries
         .iter()
         .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
-    let failed = estimate::failed_checks(&est.admissibility, &fields.displacement, sigma, frictional);
+    let failed =
+        estimate::failed_checks(&est.admissibility, &fields.displacement, sigma, frictional);
     let run = report::Run {
         solution: args.file.clone(),
         scene: scene_path,
@@ -227,7 +252,8 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             if !args.quiet {
                 eprintln!(
                     "fosls: relative error {} exceeds --fail-above {x}",
-                    est.relative.map_or("undefined (F < 0)".into(), |r| format!("{r:.3e}"))
+                    est.relative
+                        .map_or("undefined (F < 0)".into(), |r| format!("{r:.3e}"))
                 );
             }
             return Ok(ExitCode::from(1));

@@ -13,8 +13,11 @@
 //! bisected to round-off. Each edge's contribution is attributed to its owning triangle.
 //!
 //! The same pass measures the violations of admissibility (§5) and the contact zone: the
-//! state of each piece (separated: σ_n ≥ 0; stick: |σ_t| < 𝔉|σ_n|; slip otherwise), merged
-//! into intervals along each contact boundary.
+//! state of each piece (in contact where the gap is closed, u_n − g ≥ 0, and the traction
+//! compressive, σ_n < 0, both up to round-off; then stick where |σ_t| < 𝔉|σ_n|, slip
+//! otherwise; separated elsewhere), merged into intervals along each contact boundary.
+//! Requiring a closed gap keeps the small compressive oscillations of a projected nodal
+//! stress away from the contact from counting as contact.
 
 use super::{Admissibility, Contact, ContactInterval, ContactState, Violation};
 use crate::element::edge::{edge_reference_point, outward_normal};
@@ -337,8 +340,9 @@ pub fn boundary(inp: &Input) -> Boundary {
     let (mut pen, mut ten, mut cone) = (Acc::default(), Acc::default(), Acc::default());
     let (mut dir, mut neu) = (Acc::default(), Acc::default());
 
-    // Scale of σ_n on Γ_C for the state tolerance.
+    // Scales of σ_n and u on Γ_C for the state tolerances.
     let mut sn_scale = 0.0f64;
+    let mut u_scale = 0.0f64;
     for e in inp.edges {
         if let Condition::Contact(b) = e.condition {
             let c = contact_spec(inp.scene, b);
@@ -346,10 +350,12 @@ pub fn boundary(inp: &Input) -> Boundary {
             for i in 0..=4 {
                 let a = f.at(i as f64 / 4.0);
                 sn_scale = sn_scale.max(contact_at(&a, c).sn.abs());
+                u_scale = u_scale.max(a.u[0].abs()).max(a.u[1].abs());
             }
         }
     }
     let tol = STATE_TOLERANCE * sn_scale;
+    let tol_gap = STATE_TOLERANCE * u_scale;
 
     // Pieces of each contact boundary, per edge, for the intervals.
     let mut pieces: Vec<(usize, usize, Vec<Piece>)> = Vec::new(); // (boundary, edge index, pieces)
@@ -412,7 +418,8 @@ pub fn boundary(inp: &Input) -> Boundary {
                         cone.l2sq += dw * (p.st.abs() - fr * p.sn.abs()).max(0.0).powi(2);
                     }
                     let mid = q(a + 0.5 * h);
-                    let state = if mid.sn >= -tol {
+                    // In contact: the gap is closed and the traction compressive.
+                    let state = if mid.sn >= -tol || mid.un - mid.g < -tol_gap {
                         ContactState::Separated
                     } else if fr > 0.0 && fr * mid.sn.abs() - mid.st.abs() > tol {
                         ContactState::Stick
