@@ -56,7 +56,8 @@ pub struct Summary {
     pub degree: usize,
     pub curved_cells: usize,
     pub exploded: Option<Merge>,
-    pub reoriented: bool,
+    /// Clockwise cells reordered counter-clockwise.
+    pub reoriented: usize,
     /// [xmin, ymin, xmax, ymax].
     pub bounding_box: [f64; 4],
     pub edges: usize,
@@ -236,10 +237,11 @@ pub fn render(s: &Summary) -> String {
             let _ = writeln!(o, "  exploded    no");
         }
     }
-    if s.reoriented {
+    if s.reoriented > 0 {
         let _ = writeln!(
             o,
-            "  note        all cells were clockwise; reordered counter-clockwise"
+            "  note        {} clockwise cells reordered counter-clockwise",
+            s.reoriented
         );
     }
     if !s.interior_lines.is_empty() {

@@ -118,8 +118,8 @@ pub struct MeshReport {
     pub merge: Option<Merge>,
     /// P2 cells with a mid-edge node off the chord midpoint.
     pub curved_cells: usize,
-    /// All cells were clockwise and have been reordered counter-clockwise.
-    pub reoriented: bool,
+    /// Clockwise cells reordered counter-clockwise.
+    pub reoriented: usize,
     /// Line cells lying on interior edges (file cell indices).
     pub interior_lines: Vec<usize>,
 }
@@ -313,25 +313,14 @@ fn check_geometry(
             ),
         ));
     }
-    let negative: Vec<usize> = (0..n).filter(|&t| areas[t] < 0.0).collect();
-    if negative.len() == n {
-        for tri in &mut mesh.triangles {
+    // Node order is a writer's convention: clockwise cells are reordered counter-clockwise.
+    // A truly inverted cell overlaps its neighbour; topology finds that as a shared edge with
+    // both cells on the same side.
+    for (t, tri) in mesh.triangles.iter_mut().enumerate() {
+        if areas[t] < 0.0 {
             *tri = [tri[0], tri[2], tri[1], tri[5], tri[4], tri[3]];
+            report.reoriented += 1;
         }
-        report.reoriented = true;
-    } else if !negative.is_empty() {
-        let cells: Vec<usize> = negative
-            .iter()
-            .map(|&t| mesh.triangle_cell[t] as usize)
-            .collect();
-        return Err((
-            "Cells".into(),
-            format!(
-                "inverted triangles (clockwise among counter-clockwise): cells {} ({} in all)",
-                list_indices(&cells),
-                cells.len()
-            ),
-        ));
     }
 
     if mesh.degree == 2 {
@@ -667,31 +656,36 @@ mod tests {
         assert_eq!(d.triangle_data[0].values, vec![10., 11.]);
         assert_eq!(d.line_data[0].values, vec![12.]);
         assert_eq!(d.report.vertex_cells_ignored, 1);
-        assert!(!d.report.reoriented);
+        assert_eq!(d.report.reoriented, 0);
         assert!(d.report.merge.is_none());
     }
 
     #[test]
-    fn all_clockwise_mesh_is_reoriented_and_one_inverted_cell_is_an_error() {
+    fn clockwise_cells_are_reordered() {
         let cw = VtuFile::from_cells(
             Path::new("m.vtu"),
             square().points,
             &[(5, vec![0, 2, 1]), (5, vec![1, 2, 3])],
         );
         let d = build(cw).unwrap();
-        assert!(d.report.reoriented);
+        assert_eq!(d.report.reoriented, 2);
         assert!((0..2).all(|t| d.mesh.double_area(t) > 0.0));
-
-        let mixed = VtuFile::from_cells(
+        // P2: mid nodes follow their edges.
+        let pts = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [0., 1., 0.],
+            [0.5, 0., 0.],
+            [0.5, 0.5, 0.],
+            [0., 0.5, 0.],
+        ];
+        let d = build(VtuFile::from_cells(
             Path::new("m.vtu"),
-            square().points,
-            &[(3, vec![0, 1]), (5, vec![0, 1, 2]), (5, vec![1, 2, 3])],
-        );
-        let e = build(mixed).unwrap_err().to_string();
-        assert_eq!(
-            e,
-            "m.vtu: Cells: inverted triangles (clockwise among counter-clockwise): cells 2 (1 in all)"
-        );
+            pts,
+            &[(22, vec![0, 2, 1, 5, 4, 3])],
+        ))
+        .unwrap();
+        assert_eq!(d.mesh.triangles[0], [0, 1, 2, 3, 4, 5]);
     }
 
     #[test]

@@ -61,6 +61,7 @@ pub fn build(data: &Dataset) -> Result<Topology> {
     let mut cell_edge_sign = vec![[0i8; 3]; n];
     let mut non_manifold = Vec::new();
     let mut non_conforming = Vec::new();
+    let mut folded = Vec::new();
     let mut i = 0;
     while i < half.len() {
         let mut j = i + 1;
@@ -76,6 +77,15 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         }
         if j - i == 2 && mid_of(&half[i]) != mid_of(&half[i + 1]) {
             non_conforming.push(mesh.triangle_cell[half[i + 1].1 as usize] as usize);
+        }
+        // Counter-clockwise neighbours run a shared edge in opposite directions; the same
+        // direction means both lie on one side of it: the cells overlap (a folded mesh).
+        if j - i == 2 {
+            let dir = |h: &([u32; 2], u32, u8)| mesh.triangles[h.1 as usize][h.2 as usize];
+            if dir(&half[i]) == dir(&half[i + 1]) {
+                folded.push(mesh.triangle_cell[half[i].1 as usize] as usize);
+                folded.push(mesh.triangle_cell[half[i + 1].1 as usize] as usize);
+            }
         }
         edge_cells.push([half[i].1, if j - i >= 2 { half[i + 1].1 } else { NONE }]);
         for h in &half[i..j] {
@@ -94,6 +104,16 @@ pub fn build(data: &Dataset) -> Result<Topology> {
             "edges shared by more than two triangles (non-manifold mesh) at cells {} ({} in all)",
             list_indices(&non_manifold),
             non_manifold.len()
+        )));
+    }
+    if !folded.is_empty() {
+        folded.sort_unstable();
+        folded.dedup();
+        return Err(err(format!(
+            "inverted or overlapping triangles (neighbours on the same side of their shared \
+             edge): cells {} ({} in all)",
+            list_indices(&folded),
+            folded.len()
         )));
     }
     if !non_conforming.is_empty() {
@@ -230,6 +250,22 @@ mod tests {
         assert_eq!(
             e,
             "m.vtu: Cells: dangling line cells (not an edge of any triangle): cells 3, 4 (2 in all)"
+        );
+    }
+
+    #[test]
+    fn a_flipped_cell_is_found_as_overlap() {
+        // Vertex 3 of the upper-right triangle moved across the diagonal: the cell flips.
+        let f = VtuFile::from_cells(
+            Path::new("m.vtu"),
+            vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0.2, 0.2, 0.]],
+            &[(5, vec![0, 1, 2]), (5, vec![1, 3, 2])],
+        );
+        let e = build(&mesh::build(f).unwrap()).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "m.vtu: Cells: inverted or overlapping triangles (neighbours on the same side of \
+             their shared edge): cells 0, 1 (2 in all)"
         );
     }
 

@@ -135,10 +135,13 @@ fn nan_and_inf_values() {
 
 #[test]
 fn inverted_and_degenerate_cells() {
-    let f = square(&[(5, vec![0, 1, 2]), (5, vec![1, 2, 3]), (5, vec![0, 1, 3])]);
+    // The upper-right triangle of the square with its far vertex moved across the diagonal.
+    let mut f = square(&[(5, vec![0, 1, 2]), (5, vec![1, 3, 2])]);
+    f.points[3] = [0.2, 0.2, 0.0];
     assert_eq!(
         refused("inverted.vtu", &to_bytes(&f, Placement::AppendedRaw)),
-        "Cells: inverted triangles (clockwise among counter-clockwise): cells 1 (1 in all)"
+        "Cells: inverted or overlapping triangles (neighbours on the same side of their shared \
+         edge): cells 0, 1 (2 in all)"
     );
     let f = VtuFile::from_cells(
         Path::new("x.vtu"),

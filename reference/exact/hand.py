@@ -87,4 +87,6 @@ def hand_functional(*, mu, lam, norm, w_d, u, tau, f, Lx, Ly, friction=0.0, brea
     out = {"total": float(total), "constitutive": float(const), "equilibrium": float(equi),
            "complementarity": float(comp), "friction": float(fric), "energy": float(energy)}
     out["relative"] = math.sqrt(float(total / energy)) if total >= 0 else None
+    out["method"] = ("exact rational integration of the polynomial fields over the rectangle and y = 0 "
+                     "(reference/exact/hand.py); w_d, mu, lambda, F as doubles")
     return out

@@ -51,8 +51,9 @@ pub struct Boundary {
 /// contact state, relative to the largest |σ_n| on Γ_C: round-off must not make zones.
 pub const STATE_TOLERANCE: f64 = 1e-10;
 
-/// Gauss–Legendre degree per piece: exact for the degree-≤ 8 polynomial integrands of P2 data.
-const PIECE_DEGREE: usize = 19;
+/// Gauss–Legendre degree per piece (20 points): exact for the degree-≤ 8 polynomial integrands
+/// of P2 data with a wide margin for curved edges and gap expressions (boundary edges are few).
+const PIECE_DEGREE: usize = 39;
 
 /// Uniform samples per edge for bracketing zeros and maxima.
 const SAMPLES: usize = 32;

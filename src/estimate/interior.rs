@@ -5,8 +5,9 @@
 //! - energy: ∫_T ½(Cε(u_h), ε(u_h)) (or μ|ε(u_h)|²).
 //!
 //! Every square is the square of a pointwise difference. Quadrature is exact for the
-//! polynomial integrands on straight cells (degree 2 for P1, 4 for P2; +2 when f is not
-//! constant); curved cells get degree 10 (the integrand is rational there).
+//! polynomial integrands on straight cells (degree 2 for P1, 4 for P2); a body force given as a
+//! non-constant expression raises the rule to degree 12, and curved cells get degree 10 (the
+//! integrand is rational there).
 
 use rayon::prelude::*;
 
@@ -109,7 +110,13 @@ pub fn interior(inp: &Input) -> Interior {
     let constant_f = inp
         .body_force
         .is_none_or(|f| f[0].is_constant() && f[1].is_constant());
-    let straight_degree = if p2 { 4 } else { 2 } + if constant_f { 0 } else { 2 };
+    // Polynomial integrands are integrated exactly; a non-polynomial body force gets the
+    // highest tabulated rule (degree 12), which resolves smooth data to ~1e-10 on usual meshes.
+    let straight_degree = if constant_f {
+        if p2 { 4 } else { 2 }
+    } else {
+        crate::quadrature::MAX_TABULATED_DEGREE
+    };
     let straight = Table::new(straight_degree, p2);
     let curved = Table::new(CURVED_DEGREE, p2);
     let f_const = inp.body_force.map(|f| {
