@@ -287,8 +287,15 @@ fn scene_errors_are_one_line_with_exit_status_2() {
             "material.youngs_modulus: missing required key".into(),
         ),
         (
-            good.replace("poisson_ratio = 0.28", "poisson_ratio = 0.5\n[estimate]\nnorm = \"energy\"\n[material2]"),
-            String::new(),
+            format!(
+                "{}\n[estimate]\nnorm = \"energy\"\n",
+                good.replace("poisson_ratio = 0.28", "poisson_ratio = 0.5")
+            ),
+            "estimate.norm: ν = 0.5 needs norm = \"robust\" or \"seed\"".into(),
+        ),
+        (
+            good.replace("kind = \"contact\"", "kind = \"contakt\""),
+            "boundary[1] \"contact\".kind: unknown kind \"contakt\"".into(),
         ),
         (
             good.replace("tag = 1", "tag = 7"),
