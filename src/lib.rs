@@ -13,6 +13,7 @@ pub mod mesh;
 pub mod problem;
 pub mod quadrature;
 pub mod read;
+pub mod reconstruct;
 pub mod report;
 pub mod topology;
 pub mod write;
