@@ -118,7 +118,7 @@ fn main() {
                         mesh: &data.mesh,
                         scene: &scene,
                         u: &fields.displacement,
-                        sigma: values,
+                        sigma: estimate::StressField::Nodal(values),
                         edges: &bounds.edges,
                         norm: scene.effective_norm(),
                         symmetric_stress: true,

@@ -7,10 +7,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use fosls::estimate::{self, Estimate};
+use fosls::element::rt::RtOrder;
+use fosls::estimate::{self, Estimate, StressField};
 use fosls::problem::{self, Stress};
 use fosls::read::scene::{self, Norm, Scene};
-use fosls::{Error, mesh, read, report, topology};
+use fosls::{Error, mesh, read, reconstruct, report, topology};
 
 use super::{EstimateArgs, NormArg, Source, check_output, write_json};
 
@@ -114,23 +115,87 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         )
         .into());
     }
-    let (sigma, stress_info, symmetric) = match (&fields.stress, args.stress) {
-        (_, Source::Reconstruct) => {
-            return Err(Error::Usage(
-                "--stress reconstruct: stress reconstruction is not available in this version"
-                    .into(),
+    let degree = match args.degree {
+        Some(k) if k <= 1 => k,
+        Some(k) => {
+            return Err(Error::Usage(format!("--degree {k}: RT_0 and RT_1 are available")).into());
+        }
+        None => data.mesh.degree - 1,
+    };
+    let order = if degree == 0 {
+        RtOrder::Rt0
+    } else {
+        RtOrder::Rt1
+    };
+    let reconstruct_reason = match (&fields.stress, args.stress) {
+        (_, Source::Reconstruct) => Some("asked for with --stress reconstruct".to_string()),
+        (Stress::Nodal { .. }, _) => None,
+        (Stress::Cell { name, .. }, Source::Auto) => Some(format!(
+            "\"{name}\" is cell data (piecewise constant), not H(div)-conforming"
+        )),
+        (Stress::Cell { name, .. }, Source::File) => {
+            return Err(Error::input(
+                &args.file,
+                format!("cell array \"{name}\""),
+                "--stress file: a cell-data stress is not H(div)-conforming and cannot be \
+                 evaluated as is (use --stress auto or reconstruct)",
             )
             .into());
         }
+        (Stress::Absent, Source::File) => {
+            return Err(Error::input(
+                &args.file,
+                "stress",
+                "--stress file: the file holds no stress field",
+            )
+            .into());
+        }
+        (Stress::Absent, Source::Auto) => Some("the file holds no stress".to_string()),
+    };
+    let reconstruction = match &reconstruct_reason {
+        None => None,
+        Some(_) => {
+            let bar = stage(args.quiet, "reconstructing the stress");
+            let length_scale = scene
+                .estimate
+                .length_scale
+                .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
+            let r = reconstruct::stress::reconstruct(&reconstruct::stress::Input {
+                mesh: &data.mesh,
+                topo: &topo,
+                scene: &scene,
+                u: &fields.displacement,
+                edges: &boundaries.edges,
+                norm,
+                length_scale,
+                order,
+            })
+            .map_err(|problem| Error::input(&args.file, "stress reconstruction", problem))?;
+            bar.finish_and_clear();
+            lap("reconstruct stress", &mut stages);
+            Some(r)
+        }
+    };
+    let (sigma, stress_info, symmetric) = match (&fields.stress, &reconstruction) {
+        (_, Some(r)) => (
+            StressField::Rt(&r.stress),
+            report::FieldInfo {
+                source: "reconstructed".into(),
+                name: String::new(),
+                space: format!("RT_{degree} row-wise (global minimiser of F)"),
+                reason: reconstruct_reason.clone().unwrap_or_default(),
+            },
+            false,
+        ),
         (
             Stress::Nodal {
                 values,
                 name,
                 layout,
             },
-            _,
+            None,
         ) => (
-            values,
+            StressField::Nodal(values),
             report::FieldInfo {
                 source: "file".into(),
                 name: name.clone(),
@@ -142,24 +207,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             },
             symmetric(values),
         ),
-        (Stress::Cell { name, .. }, _) => {
-            return Err(Error::input(
-                &args.file,
-                format!("cell array \"{name}\""),
-                "the stress is cell data (piecewise constant, not H(div)-conforming): it must \
-                 be reconstructed, which this version of fosls cannot do yet",
-            )
-            .into());
-        }
-        (Stress::Absent, _) => {
-            return Err(Error::input(
-                &args.file,
-                "stress",
-                "the file holds no stress field: it must be reconstructed from the \
-                 displacement, which this version of fosls cannot do yet",
-            )
-            .into());
-        }
+        _ => unreachable!("a stress that is not nodal is reconstructed"),
     };
 
     let bar = stage(args.quiet, "evaluating the functional");
@@ -197,8 +245,28 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         .boundaries
         .iter()
         .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
-    let failed =
-        estimate::failed_checks(&est.admissibility, &fields.displacement, sigma, frictional);
+    let failed = estimate::failed_checks(
+        &est.admissibility,
+        &fields.displacement,
+        sigma.scale(&data.mesh),
+        frictional,
+    );
+    if let Some(r) = &reconstruction {
+        notes.push(format!(
+            "stress reconstruction: {} unknowns, {} nonzeros, {} active-set iterations{}, {} \
+             active contact constraints, KKT residual {:.2e}",
+            r.info.unknowns,
+            r.info.nonzeros,
+            r.info.iterations,
+            if r.info.converged {
+                ""
+            } else {
+                " (NOT converged: iteration cap)"
+            },
+            r.info.active,
+            r.info.kkt_residual
+        ));
+    }
     let run = report::Run {
         solution: args.file.clone(),
         scene: scene_path,

@@ -87,6 +87,9 @@ pub struct EstimateArgs {
     /// Where the displacement comes from.
     #[arg(long, value_enum, default_value = "auto")]
     pub displacement: Source,
+    /// Degree k of the RT_k stress reconstruction (default: displacement degree − 1).
+    #[arg(long, value_name = "k")]
+    pub degree: Option<usize>,
     /// Mark cells for refinement by Dörfler's bulk criterion with parameter θ ∈ (0, 1].
     #[arg(long, value_name = "θ")]
     pub mark: Option<f64>,

@@ -32,7 +32,7 @@ use crate::read::scene::{BoundaryKind, Contact as ContactSpec, Scene};
 pub struct Input<'a> {
     pub mesh: &'a Mesh,
     pub u: &'a [[f64; 2]],
-    pub sigma: &'a [[f64; 4]],
+    pub sigma: super::StressField<'a>,
     pub scene: &'a Scene,
     /// Every boundary edge with its condition.
     pub edges: &'a [BoundaryEdge],
@@ -59,7 +59,9 @@ const PIECE_DEGREE: usize = 39;
 const SAMPLES: usize = 32;
 
 /// Fields of one triangle, evaluated along one of its edges.
-struct EdgeFields {
+struct EdgeFields<'a> {
+    cell: usize,
+    rt: Option<&'a crate::reconstruct::stress::RtStress>,
     x: [[f64; 2]; 6],
     u: [[f64; 2]; 6],
     s: [[f64; 4]; 6],
@@ -81,11 +83,16 @@ struct At {
     sigma: [f64; 4],
 }
 
-impl EdgeFields {
-    fn new(inp: &Input, e: &BoundaryEdge) -> EdgeFields {
+impl<'a> EdgeFields<'a> {
+    fn new(inp: &Input<'a>, e: &BoundaryEdge) -> EdgeFields<'a> {
         let t = e.cell as usize;
         let nodes = inp.mesh.nodes(t);
         let mut f = EdgeFields {
+            cell: t,
+            rt: match inp.sigma {
+                super::StressField::Rt(rt) => Some(rt),
+                super::StressField::Nodal(_) => None,
+            },
             x: inp.mesh.coords(t),
             u: [[0.0; 2]; 6],
             s: [[0.0; 4]; 6],
@@ -95,7 +102,9 @@ impl EdgeFields {
         };
         for (k, &p) in nodes.iter().enumerate() {
             f.u[k] = inp.u[p as usize];
-            f.s[k] = inp.sigma[p as usize];
+            if let super::StressField::Nodal(sv) = inp.sigma {
+                f.s[k] = sv[p as usize];
+            }
         }
         f
     }
@@ -128,6 +137,7 @@ impl EdgeFields {
             sigma: [0.0; 4],
         };
         let mut tangent = [0.0; 2];
+        let mut jm = [[0.0; 2]; 2];
         let x0 = self.x[0];
         for k in 0..self.n {
             let d = [self.x[k][0] - x0[0], self.x[k][1] - x0[1]];
@@ -136,10 +146,16 @@ impl EdgeFields {
                 a.x[c] += d[c] * phi[k];
                 tangent[c] += d[c] * dphi;
                 a.u[c] += self.u[k][c] * phi[k];
+                jm[c][0] += d[c] * g[k][0];
+                jm[c][1] += d[c] * g[k][1];
             }
             for m in 0..4 {
                 a.sigma[m] += self.s[k][m] * phi[k];
             }
+        }
+        if let Some(rt) = self.rt {
+            let jac = crate::element::map::Jacobian::new(jm);
+            a.sigma = rt.at(self.cell, &jac, xi).0;
         }
         a.x = [a.x[0] + x0[0], a.x[1] + x0[1]];
         a.ds = tangent[0].hypot(tangent[1]);

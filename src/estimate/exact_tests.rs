@@ -192,7 +192,7 @@ fn exact(nu: f64, norm: Norm, perturb: impl Fn([f64; 2]) -> [f64; 4]) -> (Estima
         mesh: &d.mesh,
         scene: &sc,
         u: &u,
-        sigma: &sigma,
+        sigma: StressField::Nodal(&sigma),
         edges: &e,
         norm,
         symmetric_stress: true,

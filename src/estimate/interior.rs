@@ -24,8 +24,7 @@ pub struct Input<'a> {
     pub mesh: &'a Mesh,
     /// Displacement per mesh point.
     pub u: &'a [[f64; 2]],
-    /// Stress per mesh point, row-major `[xx, xy, yx, yy]`.
-    pub sigma: &'a [[f64; 4]],
+    pub sigma: super::StressField<'a>,
     pub elastic: Elastic,
     pub norm: Norm,
     /// w_d of the equilibrium term.
@@ -177,7 +176,9 @@ fn cell(
     let mut s = [[0.0; 4]; 6];
     for (k, &p) in nodes.iter().enumerate() {
         u[k] = inp.u[p as usize];
-        s[k] = inp.sigma[p as usize];
+        if let super::StressField::Nodal(sv) = inp.sigma {
+            s[k] = sv[p as usize];
+        }
     }
     // P1 cells and straight P2 cells have the constant Jacobian of their vertices.
     let fixed = (!is_curved(mesh, t)).then(|| affine_jacobian(&x));
@@ -205,6 +206,9 @@ fn cell(
             }
             div[0] += s[k][0] * g[0] + s[k][1] * g[1];
             div[1] += s[k][2] * g[0] + s[k][3] * g[1];
+        }
+        if let super::StressField::Rt(rt) = inp.sigma {
+            (sig, div) = rt.at(t, &jac, table.rule.points[q]);
         }
         let sym = 0.5 * (gu[0][1] + gu[1][0]);
         let eps = [gu[0][0], sym, sym, gu[1][1]];

@@ -146,14 +146,45 @@ use crate::read::scene::Scene;
 /// checks, of max |σ_h| for stress checks) when deciding whether a hypothesis holds.
 pub const ADMISSIBLE_TOLERANCE: f64 = 1e-10;
 
+/// A stress the functional can be evaluated for (DESIGN.md §4).
+#[derive(Clone, Copy, Debug)]
+pub enum StressField<'a> {
+    /// Continuous nodal values per mesh point, row-major `[xx, xy, yx, yy]`.
+    Nodal(&'a [[f64; 4]]),
+    /// Row-wise Raviart–Thomas (a reconstruction).
+    Rt(&'a crate::reconstruct::stress::RtStress),
+}
+
+impl StressField<'_> {
+    /// The largest stress component magnitude (at nodes, or at cell centroids for RT), the
+    /// scale of the stress admissibility tolerances.
+    pub fn scale(&self, mesh: &Mesh) -> f64 {
+        match self {
+            StressField::Nodal(s) => s
+                .iter()
+                .fold(0.0f64, |m, v| v.iter().fold(m, |m, x| m.max(x.abs()))),
+            StressField::Rt(rt) => (0..mesh.triangles.len())
+                .map(|t| {
+                    let x = mesh.coords(t);
+                    let jac = crate::element::map::Jacobian::new([
+                        [x[1][0] - x[0][0], x[2][0] - x[0][0]],
+                        [x[1][1] - x[0][1], x[2][1] - x[0][1]],
+                    ]);
+                    let (s, _) = rt.at(t, &jac, [1.0 / 3.0, 1.0 / 3.0]);
+                    s.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+                })
+                .fold(0.0f64, f64::max),
+        }
+    }
+}
+
 /// What [`run`] needs.
 pub struct Input<'a> {
     pub mesh: &'a Mesh,
     pub scene: &'a Scene,
     /// Displacement per mesh point.
     pub u: &'a [[f64; 2]],
-    /// Stress per mesh point, row-major `[xx, xy, yx, yy]`.
-    pub sigma: &'a [[f64; 4]],
+    pub sigma: StressField<'a>,
     /// Every boundary edge with its condition.
     pub edges: &'a [BoundaryEdge],
     pub norm: Norm,
@@ -227,15 +258,13 @@ pub fn run(inp: &Input) -> Estimate {
 pub fn failed_checks(
     adm: &Admissibility,
     u: &[[f64; 2]],
-    sigma: &[[f64; 4]],
+    sigma_scale: f64,
     frictional: bool,
 ) -> Vec<String> {
     let umax = u
         .iter()
         .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
-    let smax = sigma
-        .iter()
-        .fold(0.0f64, |m, s| s.iter().fold(m, |m, v| m.max(v.abs())));
+    let smax = sigma_scale;
     let (tu, ts) = (ADMISSIBLE_TOLERANCE * umax, ADMISSIBLE_TOLERANCE * smax);
     let mut out = Vec::new();
     let mut check = |v: &Violation, tol: f64, what: &str| {
@@ -286,7 +315,12 @@ fn bound(inp: &Input, f: &Terms, energy: f64, adm: &Admissibility) -> Bound {
             inp.norm.as_str()
         ));
     }
-    failed.extend(failed_checks(adm, inp.u, inp.sigma, frictional));
+    failed.extend(failed_checks(
+        adm,
+        inp.u,
+        inp.sigma.scale(inp.mesh),
+        frictional,
+    ));
     if f.equilibrium > ADMISSIBLE_TOLERANCE * ADMISSIBLE_TOLERANCE * energy {
         failed.push(format!(
             "σ_h is not equilibrated: div σ_h + f ≠ 0 (equilibrium term {:.3e})",

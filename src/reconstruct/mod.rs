@@ -4,3 +4,4 @@
 //! with bound constraints on the normal traces at the contact points ([`solve`]).
 
 pub mod solve;
+pub mod stress;

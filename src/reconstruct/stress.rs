@@ -1,0 +1,438 @@
+//! Global stress reconstruction (DESIGN.md §5):
+//!
+//!     σ_h = argmin { F(u_h, τ) : τ ∈ RT_k(T_h)² ∩ K_σ },
+//!
+//! rows of τ in RT_k (k = 0, 1; [`crate::element::rt`]), with
+//! K_σ: τn = t on Neumann and unselected (traction-free) edges, τ_t = 0 on frictionless
+//! contact edges (both essential, imposed on the edge DOFs), τ_n ≤ 0 at the contact DOF points
+//! (a bound on single unknowns after rotating the two rows' edge DOFs into the contact frame
+//! (n, t)). F(u_h, ·) is quadratic: with e = ε(u_h) − Aτ and the preset's density Q(e) with
+//! bilinear form B,
+//!
+//!     F = ∫ Q(ε) − 2B(ε, Aτ) + B(Aτ, Aτ) + ½ w_d |div τ + f|² + ⟨u_n − g, τ_n⟩_{Γ_C},
+//!
+//! so F = ½ xᵀKx − bᵀx + const in the DOFs x, minimised by [`super::solve::solve_bound_qp`].
+//! Coulomb friction (the cone constraint) is not implemented yet.
+
+use super::solve::{Lower, SolveInfo, solve_bound_qp};
+use crate::element::edge::edge_reference_point;
+use crate::element::lagrange::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
+use crate::element::map::Jacobian;
+use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
+use crate::estimate::interior::is_curved;
+use crate::estimate::material::Elastic;
+use crate::mesh::Mesh;
+use crate::problem::{BoundaryEdge, Condition};
+use crate::quadrature::{line_rule_cached, triangle_rule_cached};
+use crate::read::scene::{BoundaryKind, Norm, Scene};
+use crate::topology::Topology;
+
+/// A row-wise RT_k stress: per triangle and row, the coefficients of the cell's local basis.
+#[derive(Clone, Debug)]
+pub struct RtStress {
+    pub order: RtOrder,
+    pub coefficients: Vec<[[f64; MAX_RT_DOFS]; 2]>,
+}
+
+impl RtStress {
+    /// σ (row-major `[xx, xy, yx, yy]`) and div σ at reference point `xi` of triangle `t`,
+    /// whose map has Jacobian `jac` there.
+    #[inline]
+    pub fn at(&self, t: usize, jac: &Jacobian, xi: [f64; 2]) -> ([f64; 4], [f64; 2]) {
+        let (v, d) = rt::piola(self.order, jac, xi);
+        let c = &self.coefficients[t];
+        let mut s = [0.0; 4];
+        let mut div = [0.0; 2];
+        for i in 0..self.order.dofs() {
+            for r in 0..2 {
+                s[2 * r] += c[r][i] * v[i][0];
+                s[2 * r + 1] += c[r][i] * v[i][1];
+                div[r] += c[r][i] * d[i];
+            }
+        }
+        (s, div)
+    }
+}
+
+/// What the reconstruction needs.
+pub struct Input<'a> {
+    pub mesh: &'a Mesh,
+    pub topo: &'a Topology,
+    pub scene: &'a Scene,
+    pub u: &'a [[f64; 2]],
+    pub edges: &'a [BoundaryEdge],
+    pub norm: Norm,
+    pub length_scale: f64,
+    pub order: RtOrder,
+}
+
+/// Cap on active-set changes.
+pub const MAX_ITERATIONS: usize = 200;
+
+/// Bilinear form B of the constitutive density Q(e) = B(e, e) (DESIGN.md §3).
+#[inline]
+fn bilinear(el: &Elastic, norm: Norm, x: [f64; 4], y: [f64; 4]) -> f64 {
+    let xy = x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3];
+    match norm {
+        Norm::Energy => el.mu * xy + 0.5 * el.lambda * (x[0] + x[3]) * (y[0] + y[3]),
+        Norm::Robust => el.mu * xy,
+        Norm::Seed => 0.5 * xy,
+    }
+}
+
+/// Jacobian of the cell map at `xi` (3 or 6 nodes), relative to node 0.
+fn jacobian(x: &[[f64; 2]; 6], n: usize, xi: [f64; 2]) -> Jacobian {
+    let g: [[f64; 2]; 6] = if n == 6 {
+        p2_gradients(xi)
+    } else {
+        let g = P1_GRADIENTS;
+        [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
+    };
+    let mut m = [[0.0; 2]; 2];
+    for i in 1..n {
+        let d = [x[i][0] - x[0][0], x[i][1] - x[0][1]];
+        for a in 0..2 {
+            for b in 0..2 {
+                m[a][b] += d[a] * g[i][b];
+            }
+        }
+    }
+    Jacobian::new(m)
+}
+
+fn shape(n: usize, xi: [f64; 2]) -> [f64; 6] {
+    if n == 6 {
+        p2_values(xi)
+    } else {
+        let v = p1_values(xi);
+        [v[0], v[1], v[2], 0.0, 0.0, 0.0]
+    }
+}
+
+/// Global unknowns: per row, the edge slots of every edge, then the interior DOFs of every
+/// cell; at contact slots the two rows' unknowns are replaced by (y_n, y_t).
+struct Dofs {
+    per_row: usize,
+    edge_dofs: usize,
+    interior: usize,
+    edges: usize,
+}
+
+impl Dofs {
+    fn edge(&self, row: usize, e: usize, slot: usize) -> usize {
+        row * self.per_row + e * self.edge_dofs + slot
+    }
+    fn interior(&self, row: usize, t: usize, m: usize) -> usize {
+        row * self.per_row + self.edges * self.edge_dofs + t * self.interior + m
+    }
+}
+
+/// Position, outward normal and |x'(s)| at parameter s of local edge `l` of a cell.
+fn edge_point(
+    x: &[[f64; 2]; 6],
+    n: usize,
+    l: usize,
+    s: f64,
+) -> ([f64; 2], [f64; 2], f64, [f64; 2]) {
+    let xi = edge_reference_point(l, s);
+    let jac = jacobian(x, n, xi);
+    let t_hat = rt::REFERENCE_EDGE_TANGENTS[l];
+    let m = jac.matrix;
+    let t = [
+        m[0][0] * t_hat[0] + m[0][1] * t_hat[1],
+        m[1][0] * t_hat[0] + m[1][1] * t_hat[1],
+    ];
+    let len = t[0].hypot(t[1]);
+    let phi = shape(n, xi);
+    let mut p = [0.0; 2];
+    for k in 0..n {
+        p[0] += x[k][0] * phi[k];
+        p[1] += x[k][1] * phi[k];
+    }
+    (p, [t[1] / len, -t[0] / len], len, xi)
+}
+
+/// The contact frame (n, t) at a contact DOF point and the owner's orientation sign: the
+/// owner's outward flux of row r is n_r y_n + t_r y_t, the global DOF is sign × that.
+type Frame = ([f64; 2], [f64; 2], f64);
+
+/// The result of a reconstruction.
+pub struct Reconstruction {
+    pub stress: RtStress,
+    pub info: SolveInfo,
+}
+
+/// Reconstructs σ_h; errors name what is not supported.
+pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
+    let mesh = inp.mesh;
+    let order = inp.order;
+    let nloc = order.dofs();
+    let ntri = mesh.triangles.len();
+    let dofs = Dofs {
+        per_row: inp.topo.edges.len() * order.edge_dofs() + ntri * order.interior_dofs(),
+        edge_dofs: order.edge_dofs(),
+        interior: order.interior_dofs(),
+        edges: inp.topo.edges.len(),
+    };
+    let n = 2 * dofs.per_row;
+    let el = Elastic::new(&inp.scene.material);
+    if inp.norm == Norm::Energy && el.lambda.is_infinite() {
+        return Err("the energy norm needs λ < ∞".into());
+    }
+    let w_d = el.equilibrium_weight(inp.norm, inp.length_scale);
+
+    // Condition of each edge, and contact frames / fixed values per edge slot.
+    let mut condition = vec![None::<(Condition, u32, u8)>; inp.topo.edges.len()];
+    for be in inp.edges {
+        condition[be.edge as usize] = Some((be.condition, be.cell, be.local));
+    }
+    // For contact slots: (n, t) such that x_r = n_r y_n + t_r y_t in the owner's outward sense.
+    let mut frame: Vec<Option<Frame>> = vec![None; n];
+    let mut fixed: Vec<Option<f64>> = vec![None; n];
+    let mut constrained = Vec::new();
+    for (e, c) in condition.iter().enumerate() {
+        let Some((cond, cell, local)) = *c else {
+            continue;
+        };
+        let t = cell as usize;
+        let l = local as usize;
+        let x = mesh.coords(t);
+        let nn = mesh.nodes(t).len();
+        let forward = inp.topo.cell_edge_sign[t][l] > 0;
+        for slot in 0..order.edge_dofs() {
+            let s_global = order.edge_points()[slot];
+            let s = if forward { s_global } else { 1.0 - s_global };
+            let (p, normal, len, _) = edge_point(&x, nn, l, s);
+            // Global DOF = sgn × (outward flux density of the owner).
+            let sgn = if forward { 1.0 } else { -1.0 };
+            let (g0, g1) = (dofs.edge(0, e, slot), dofs.edge(1, e, slot));
+            match cond {
+                Condition::Free | Condition::Neumann(_) => {
+                    let tr = match cond {
+                        Condition::Neumann(b) => match &inp.scene.boundaries[b].kind {
+                            BoundaryKind::Neumann { traction } => [
+                                traction[0].eval(p[0], p[1], 0.0),
+                                traction[1].eval(p[0], p[1], 0.0),
+                            ],
+                            _ => [0.0; 2],
+                        },
+                        _ => [0.0; 2],
+                    };
+                    fixed[g0] = Some(sgn * tr[0] * len);
+                    fixed[g1] = Some(sgn * tr[1] * len);
+                }
+                Condition::Contact(b) => {
+                    let BoundaryKind::Contact(spec) = &inp.scene.boundaries[b].kind else {
+                        continue;
+                    };
+                    if spec.friction > 0.0 {
+                        return Err("stress reconstruction with Coulomb friction (the cone \
+                             constraint) is not available yet"
+                            .into());
+                    }
+                    let cn = spec.direction(normal);
+                    let ct = [-cn[1], cn[0]];
+                    // Local (owner) flux of row r = n_r y_n + t_r y_t; global = sgn × local.
+                    frame[g0] = Some((cn, ct, sgn));
+                    frame[g1] = Some((cn, ct, sgn));
+                    fixed[g1] = Some(0.0);
+                    constrained.push(g0);
+                }
+                Condition::Dirichlet(_) => {}
+            }
+        }
+    }
+
+    // Local function (row r, local DOF i) of cell t → [(global unknown, coefficient)].
+    let map_local = |t: usize, r: usize, i: usize| -> [(usize, f64); 2] {
+        if i >= 3 * order.edge_dofs() {
+            let m = i - 3 * order.edge_dofs();
+            return [(dofs.interior(r, t, m), 1.0), (usize::MAX, 0.0)];
+        }
+        let l = i / order.edge_dofs();
+        let e = inp.topo.cell_edges[t][l] as usize;
+        let forward = inp.topo.cell_edge_sign[t][l] > 0;
+        let (_, slot, sign) = rt::local_to_global_edge(order, l, forward)
+            .find(|&(loc, _, _)| loc == i)
+            .unwrap_or((i, 0, 1.0));
+        let g = dofs.edge(r, e, slot);
+        match frame[g] {
+            // x_r(global) = sgn (n_r y_n + t_r y_t); local = sign × global, sign = sgn here.
+            Some((cn, ct, sgn)) => [
+                (dofs.edge(0, e, slot), sign * sgn * cn[r]),
+                (dofs.edge(1, e, slot), sign * sgn * ct[r]),
+            ],
+            None => [(g, sign), (usize::MAX, 0.0)],
+        }
+    };
+
+    let rule_straight = triangle_rule_cached(4);
+    let rule_curved = triangle_rule_cached(crate::estimate::interior::CURVED_DEGREE);
+    let f_expr = inp.scene.body_force.as_ref();
+    let mut entries: Vec<(usize, usize, f64)> = Vec::with_capacity(ntri * 4 * nloc * nloc);
+    let mut b = vec![0.0; n];
+    let nl = 2 * nloc;
+    for t in 0..ntri {
+        let x = mesh.coords(t);
+        let nodes = mesh.nodes(t);
+        let nn = nodes.len();
+        let rule = if is_curved(mesh, t) {
+            rule_curved
+        } else {
+            rule_straight
+        };
+        let mut kloc = vec![0.0; nl * nl];
+        let mut bloc = vec![0.0; nl];
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let jac = jacobian(&x, nn, xi);
+            let w = wq * jac.det;
+            // ε(u_h).
+            let g: [[f64; 2]; 6] = if nn == 6 {
+                p2_gradients(xi)
+            } else {
+                let g = P1_GRADIENTS;
+                [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
+            };
+            let mut gu = [[0.0; 2]; 2];
+            for (k, &p) in nodes.iter().enumerate() {
+                let gp = jac.physical_gradient(g[k]);
+                let u = inp.u[p as usize];
+                for a in 0..2 {
+                    gu[a][0] += u[a] * gp[0];
+                    gu[a][1] += u[a] * gp[1];
+                }
+            }
+            let sym = 0.5 * (gu[0][1] + gu[1][0]);
+            let eps = [gu[0][0], sym, sym, gu[1][1]];
+            let f = match f_expr {
+                None => [0.0; 2],
+                Some(fe) => {
+                    let phi = shape(nn, xi);
+                    let mut p = [0.0; 2];
+                    for k in 0..nn {
+                        p[0] += x[k][0] * phi[k];
+                        p[1] += x[k][1] * phi[k];
+                    }
+                    [fe[0].eval(p[0], p[1], 0.0), fe[1].eval(p[0], p[1], 0.0)]
+                }
+            };
+            let (v, d) = rt::piola(order, &jac, xi);
+            // A τ and div τ of each local function (row r = φ_i, the other row 0).
+            let mut at = vec![[0.0; 4]; nl];
+            let mut dv = vec![[0.0; 2]; nl];
+            for r in 0..2 {
+                for i in 0..nloc {
+                    let mut tau = [0.0; 4];
+                    tau[2 * r] = v[i][0];
+                    tau[2 * r + 1] = v[i][1];
+                    at[r * nloc + i] = el.compliance(tau);
+                    dv[r * nloc + i][r] = d[i];
+                }
+            }
+            for a in 0..nl {
+                bloc[a] += w
+                    * (2.0 * bilinear(&el, inp.norm, eps, at[a])
+                        - w_d * (f[0] * dv[a][0] + f[1] * dv[a][1]));
+                for c in 0..=a {
+                    let kv = w
+                        * (2.0 * bilinear(&el, inp.norm, at[a], at[c])
+                            + w_d * (dv[a][0] * dv[c][0] + dv[a][1] * dv[c][1]));
+                    kloc[a * nl + c] += kv;
+                }
+            }
+        }
+        // Contact edges of this cell: −⟨u_n − g, τ_n⟩ on the right-hand side.
+        for l in 0..3 {
+            let e = inp.topo.cell_edges[t][l] as usize;
+            let Some((Condition::Contact(bi), _, _)) = condition[e] else {
+                continue;
+            };
+            let BoundaryKind::Contact(spec) = &inp.scene.boundaries[bi].kind else {
+                continue;
+            };
+            let lr = line_rule_cached(39);
+            for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
+                let (p, normal, len, xi) = edge_point(&x, nn, l, s);
+                let jac = jacobian(&x, nn, xi);
+                let (v, _) = rt::piola(order, &jac, xi);
+                let phi = shape(nn, xi);
+                let mut u = [0.0; 2];
+                for (k, &pn) in nodes.iter().enumerate() {
+                    u[0] += inp.u[pn as usize][0] * phi[k];
+                    u[1] += inp.u[pn as usize][1] * phi[k];
+                }
+                let cn = spec.direction(normal);
+                let gap = spec.gap_at(p, cn);
+                let un = cn[0] * u[0] + cn[1] * u[1];
+                for r in 0..2 {
+                    for i in 0..nloc {
+                        let flux = v[i][0] * normal[0] + v[i][1] * normal[1];
+                        bloc[r * nloc + i] -= wq * len * (un - gap) * cn[r] * flux;
+                    }
+                }
+            }
+        }
+        // Scatter.
+        let maps: Vec<[(usize, f64); 2]> =
+            (0..nl).map(|a| map_local(t, a / nloc, a % nloc)).collect();
+        for a in 0..nl {
+            for &(ga, ca) in &maps[a] {
+                if ga == usize::MAX || ca == 0.0 {
+                    continue;
+                }
+                if fixed[ga].is_none() {
+                    b[ga] += ca * bloc[a];
+                }
+                for c in 0..nl {
+                    let kv = if c <= a {
+                        kloc[a * nl + c]
+                    } else {
+                        kloc[c * nl + a]
+                    };
+                    for &(gc, cc) in &maps[c] {
+                        if gc == usize::MAX || cc == 0.0 {
+                            continue;
+                        }
+                        let v = ca * cc * kv;
+                        match (fixed[ga], fixed[gc]) {
+                            (None, None) if ga >= gc => entries.push((ga, gc, v)),
+                            (None, Some(val)) => b[ga] -= v * val,
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for (g, f) in fixed.iter().enumerate() {
+        if let Some(v) = f {
+            entries.push((g, g, 1.0));
+            b[g] = *v;
+        }
+    }
+    let k = Lower { n, entries };
+    let (x, info) = solve_bound_qp(&k, &b, &constrained, MAX_ITERATIONS)?;
+
+    let coefficients = (0..ntri)
+        .map(|t| {
+            let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            for (r, row) in c.iter_mut().enumerate() {
+                for (i, ci) in row.iter_mut().enumerate().take(nloc) {
+                    *ci = map_local(t, r, i)
+                        .iter()
+                        .filter(|(g, _)| *g != usize::MAX)
+                        .map(|&(g, cf)| cf * x[g])
+                        .sum();
+                }
+            }
+            c
+        })
+        .collect();
+    Ok(Reconstruction {
+        stress: RtStress {
+            order,
+            coefficients,
+        },
+        info,
+    })
+}
