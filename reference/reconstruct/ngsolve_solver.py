@@ -86,8 +86,8 @@ def vector_cf(vf):
 
 # ---------------------------------------------------------------------- the solver
 class NgsolveReconstruction:
-    def __init__(self, P, k, bonus=None):
-        self.P, self.k = P, k
+    def __init__(self, P, k, bonus=None, neumann="interp"):
+        self.P, self.k, self.neumann = P, k, neumann
         self.bonus = bonus if bonus is not None else (4 if not P.curved else 12)
         self._mesh()
         self._displacement()
@@ -263,9 +263,61 @@ class NgsolveReconstruction:
         self.K = sp.csr_matrix((np.array(v), (np.array(r), np.array(c))), shape=(N, N))
         self.rhs = lf.vec.FV().NumPy().copy()
         self.free = np.array(list(fes.FreeDofs()), dtype=bool)
-        # essential values: tau_i . n = t_i on Neumann edges (0 on free edges)
-        gD = ng.GridFunction(fes)
-        gD.vec[:] = 0.0
+        # essential values tau_i . n_Omega = t_i on Neumann edges (0 on free edges)
+        self.xD = self._neumann_interp() if self.neumann == "interp" else self._neumann_l2()
+        self.xD[self.free] = 0.0
+        return self.K, self.rhs
+
+    def _edge_probe(self, el, s_pts):
+        """Points, outward normals and the normal traces of the edge DOFs of BND element el at
+        the reference parameters s_pts: X (np, 2), nO (np, 2), dofs, q (np, ndofs)."""
+        mesh, V = self.mesh, self.V
+        nO_cf = ng.specialcf.normal(2)
+        xy = ng.CF((ng.x, ng.y))
+        probe = ng.GridFunction(V)
+        pv = probe.vec.FV().NumPy()
+        tr_cf = probe * nO_cf
+        trafo = mesh.GetTrafo(ng.ElementId(ng.BND, el.nr))
+        mips = [trafo(s) for s in s_pts]
+        X = np.array([xy(mp) for mp in mips])
+        nO = np.array([nO_cf(mp) for mp in mips])
+        dofs = list(V.GetDofNrs(ng.ElementId(ng.BND, el.nr)))
+        q = np.zeros((len(mips), len(dofs)))
+        for jd, d in enumerate(dofs):
+            pv[:] = 0.0
+            pv[d] = 1.0
+            q[:, jd] = [tr_cf(mp) for mp in mips]
+        return X, nO, dofs, q
+
+    def _s_pts(self):
+        return [0.5] if self.k == 0 else [0.0, 1.0]
+
+    def _neumann_interp(self):
+        """Edge DOFs such that the normal trace of each row equals t_i at the nodal points
+        (RT_0: edge mid point, RT_1: end points) -- the nodal convention of DESIGN.md section 4."""
+        P, fes = self.P, self.fes
+        xD = np.zeros(fes.ndof)
+        bmap = {b.index: b for b in P.scene.boundaries}
+        for el in self.mesh.Elements(ng.BND):
+            name = el.mat
+            if name == "free":
+                continue
+            if not name.startswith("neumann_"):
+                continue
+            b = bmap[int(name.split("_")[1])]
+            X, nO, dofs, q = self._edge_probe(el, self._s_pts())
+            tv = b.traction(X[:, 0], X[:, 1])
+            c = np.linalg.solve(q, tv)            # (ndofs, 2)
+            for i in range(2):
+                xD[fes.Range(i).start + np.array(dofs)] = c[:, i]
+        return xD
+
+    def _neumann_l2(self):
+        """NGSolve's own boundary projection (GridFunction.Set on the Neumann boundaries)."""
+        P, fes, V, mesh = self.P, self.fes, self.V, self.mesh
+        nO = ng.specialcf.normal(2)
+        gD = np.zeros(fes.ndof)
+        fixed = np.nonzero(~np.array(list(V.FreeDofs())))[0]
         for b in P.scene.boundaries:
             if b.kind == "neumann" and f"neumann_{b.index}" in self.bcnames:
                 tc = vector_cf(b.traction)
@@ -273,26 +325,14 @@ class NgsolveReconstruction:
                     gi = ng.GridFunction(V)
                     gi.Set(tc[i] * nO, ng.BND, definedon=mesh.Boundaries(f"neumann_{b.index}"),
                            bonus_intorder=self.bonus + 4)
-                    rng = fes.Range(i)
-                    dofs = np.nonzero(~np.array(list(V.FreeDofs())))[0]
-                    # only the DOFs of this boundary were touched by Set
-                    vi = gi.vec.FV().NumPy()
-                    gD.vec.FV().NumPy()[rng.start + dofs] += vi[dofs]
-        self.xD = gD.vec.FV().NumPy().copy()
-        self.xD[self.free] = 0.0
-        return self.K, self.rhs
+                    gD[fes.Range(i).start + fixed] += gi.vec.FV().NumPy()[fixed]
+        return gD
 
     # ------------------------------------------------------------------ constraint rows
     def constraints(self):
         """Rows of tau_n (inequality) and tau_t (equality) at the nodal points of every contact
         edge: RT_0 the edge mid point, RT_1 the two end points."""
-        P, mesh, k, fes, V = self.P, self.mesh, self.k, self.fes, self.V
-        s_pts = [0.5] if k == 0 else [0.0, 1.0]
-        nO_cf = ng.specialcf.normal(2)
-        probe = ng.GridFunction(V)
-        pv = probe.vec.FV().NumPy()
-        tr_cf = probe * nO_cf
-        xy = ng.CF((ng.x, ng.y))
+        P, mesh, fes = self.P, self.mesh, self.fes
         Gr, Er, pts = [], [], []
         groups = self._contact_groups()
         for el in mesh.Elements(ng.BND):
@@ -300,23 +340,14 @@ class NgsolveReconstruction:
             if not name.startswith("contact_"):
                 continue
             b = groups[int(name.split("_")[1])]
-            trafo = mesh.GetTrafo(ng.ElementId(ng.BND, el.nr))
-            mips = [trafo(s) for s in s_pts]
-            X = np.array([xy(mp) for mp in mips])
-            nO = np.array([nO_cf(mp) for mp in mips])
+            X, nO, dofs, q = self._edge_probe(el, self._s_pts())
             if b.normal == "body":
                 n = nO
             else:
                 n = np.broadcast_to(-b.plane_normal, nO.shape)
             t = np.stack([-n[:, 1], n[:, 0]], axis=-1)
-            dofs = list(V.GetDofNrs(ng.ElementId(ng.BND, el.nr)))
-            q = np.zeros((len(mips), len(dofs)))
-            for jd, d in enumerate(dofs):
-                pv[:] = 0.0
-                pv[d] = 1.0
-                q[:, jd] = [tr_cf(mp) for mp in mips]
             va, vb = [self.mesh.vertices[v.nr].point for v in el.vertices]
-            for p in range(len(mips)):
+            for p in range(len(X)):
                 rowN, rowT = {}, {}
                 for i in range(2):
                     off = fes.Range(i).start
@@ -417,3 +448,27 @@ class NgsolveReconstruction:
 
     def point_keys(self):
         return [point_key(p["x"], p["y"], self.P.diam) for p in self.cpoints]
+
+
+def tau_at_nodes(S, x=None):
+    """tau at the VTU nodes of every cell, (Nc, nloc, 2, 2), VTU local node order."""
+    x = S.x if x is None else x
+    P, mesh = S.P, S.mesh
+    gf = ng.GridFunction(S.fes)
+    gf.vec.FV().NumPy()[:] = x
+    t1, t2 = gf.components
+    ref = [(1.0, 0.0), (0.0, 1.0), (0.0, 0.0), (0.5, 0.5), (0.0, 0.5), (0.5, 0.0)]
+    ir = ng.IntegrationRule(ref, [1.0 / 12] * 6)
+    mips = mesh.MapToAllElements(ir, ng.VOL)
+    XY = np.asarray(ng.CF((ng.x, ng.y))(mips)).reshape(mesh.ne, 6, 2)
+    T = np.asarray(ng.CF((t1[0], t1[1], t2[0], t2[1]))(mips)).reshape(mesh.ne, 6, 2, 2)
+    cells = P.cells
+    nloc = cells.shape[1]
+    out = np.zeros((len(cells), nloc, 2, 2))
+    for c in range(len(cells)):
+        for a in range(nloc):
+            d = np.hypot(*(XY[c] - P.points[cells[c, a]]).T)
+            q = int(np.argmin(d))
+            assert d[q] < 1e-9 * P.diam, (c, a, d)
+            out[c, a] = T[c, q]
+    return out

@@ -223,9 +223,12 @@ class SkfemReconstruction:
             isfree[fx] = False
             fr = np.nonzero(isfree)[0]
             b = rz[fr] - Kz[fr][:, fx] @ z[fx]
-            lu = spla.splu(Kz[fr][:, fr].tocsc())
-            z[fr] = lu.solve(b)
-            res = np.abs(Kz[fr][:, fr] @ z[fr] - b).max() / max(np.abs(b).max(), 1e-300)
+            Kff = Kz[fr][:, fr].tocsc()
+            lu = spla.splu(Kff)
+            zf = lu.solve(b)
+            zf += lu.solve(b - Kff @ zf)            # one step of iterative refinement
+            z[fr] = zf
+            res = np.abs(Kff @ zf - b).max() / max(np.abs(b).max(), 1e-300)
             lam = rz - Kz @ z                        # multipliers of z_j <= 0 on the bound slots
             history.append({"active": int(len(A)), "solve_residual": float(res)})
             if not constrained:
@@ -322,3 +325,38 @@ class SkfemReconstruction:
         x = self.x if x is None else x
         z = spla.spsolve(self.T.tocsc(), x) if x is not self.x else self.z
         return z[self.bound], np.array([z[s + self.Nrt] for s in self.bound])
+
+
+def _skfem_ref_nodes():
+    X = np.array([[0.0, 1.0, 0.0, 0.5, 0.5, 0.0],
+                  [0.0, 0.0, 1.0, 0.0, 0.5, 0.5]])
+    pair = {(0, 1): 3, (1, 2): 4, (0, 2): 5}
+    return X, pair
+
+
+def tau_at_nodes(S, x=None):
+    """tau (row-major 2x2) at the VTU nodes of every cell (vertices, and mid nodes for P2
+    cells): array (Nc, nloc, 2, 2), in the VTU local node order."""
+    from skfem import Basis
+    x = S.x if x is None else x
+    X, pair = _skfem_ref_nodes()
+    b = Basis(S.mesh, _rt_element(S.k), quadrature=(X, np.full(6, 1.0 / 12)))
+    v1 = b.interpolate(x[:S.Nrt]).value      # (2, nel, 6)
+    v2 = b.interpolate(x[S.Nrt:]).value
+    P = S.P
+    cells = P.cells
+    nloc = cells.shape[1]
+    out = np.zeros((len(cells), nloc, 2, 2))
+    t = S.mesh.t
+    for c in range(len(cells)):
+        pos = {int(S.newid[cells[c, j]]): j for j in range(3)}       # newid -> VTU local
+        sk = [int(np.nonzero(t[:, c] == S.newid[cells[c, j]])[0][0]) for j in range(3)]
+        idx = list(sk)
+        if nloc == 6:
+            for (i, j) in ((0, 1), (1, 2), (2, 0)):
+                idx.append(pair[tuple(sorted((sk[i], sk[j])))])
+        for a, q in enumerate(idx):
+            out[c, a, 0] = v1[:, c, q]
+            out[c, a, 1] = v2[:, c, q]
+        del pos
+    return out
