@@ -115,6 +115,40 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         )
         .into());
     }
+    // An inadmissible displacement (penetration or wrong Dirichlet values at the nodes) is
+    // projected onto K_u in the energy norm (DESIGN.md §5) unless --displacement file.
+    let length_scale = scene
+        .estimate
+        .length_scale
+        .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
+    let violations = reconstruct::displacement::nodal_violations(
+        &data.mesh,
+        &topo,
+        &scene,
+        &boundaries.edges,
+        &fields.displacement,
+    );
+    let projection = if violations > 0 && args.displacement == Source::Auto {
+        let bar = stage(args.quiet, "projecting the displacement onto K_u");
+        let p = reconstruct::displacement::project(
+            &data.mesh,
+            &topo,
+            &scene,
+            &boundaries.edges,
+            &fields.displacement,
+            length_scale,
+        )
+        .map_err(|problem| Error::input(&args.file, "displacement projection", problem))?;
+        bar.finish_and_clear();
+        lap("project displacement", &mut stages);
+        Some(p)
+    } else {
+        None
+    };
+    let u: &[[f64; 2]] = projection
+        .as_ref()
+        .map_or(&fields.displacement, |p| &p.displacement);
+
     let degree = match args.degree {
         Some(k) if k <= 1 => k,
         Some(k) => {
@@ -156,15 +190,11 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         None => None,
         Some(_) => {
             let bar = stage(args.quiet, "reconstructing the stress");
-            let length_scale = scene
-                .estimate
-                .length_scale
-                .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
             let r = reconstruct::stress::reconstruct(&reconstruct::stress::Input {
                 mesh: &data.mesh,
                 topo: &topo,
                 scene: &scene,
-                u: &fields.displacement,
+                u,
                 edges: &boundaries.edges,
                 norm,
                 length_scale,
@@ -214,7 +244,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     let est: Estimate = estimate::run(&estimate::Input {
         mesh: &data.mesh,
         scene: &scene,
-        u: &fields.displacement,
+        u,
         sigma,
         edges: &boundaries.edges,
         norm,
@@ -272,10 +302,21 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         scene: scene_path,
         version: env!("CARGO_PKG_VERSION"),
         displacement: report::FieldInfo {
-            source: "file".into(),
+            source: if projection.is_some() { "reconstructed" } else { "file" }.into(),
             name: fields.displacement_name.clone(),
             space: format!("P{} nodal", data.mesh.degree),
-            reason: "conforming, used as is".into(),
+            reason: match &projection {
+                Some(p) => format!(
+                    "projected onto K_u in the energy norm: {} nodes penetrate the obstacle or \
+                     miss the Dirichlet data",
+                    p.violations
+                ),
+                None if violations > 0 => format!(
+                    "used as is (--displacement file) although {violations} nodes are \
+                     inadmissible"
+                ),
+                None => "conforming and admissible at the nodes, used as is".into(),
+            },
         },
         displacement_degree: data.mesh.degree,
         stress: stress_info,
@@ -299,6 +340,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             })
             .collect(),
         marked,
+        projection_distance: projection.as_ref().map(|p| p.distance),
     };
 
     if let Some(out) = &args.output {

@@ -51,6 +51,12 @@ pub struct Boundary {
 /// contact state, relative to the largest |σ_n| on Γ_C: round-off must not make zones.
 pub const STATE_TOLERANCE: f64 = 1e-10;
 
+/// Relative size (of max |u_h| on Γ_C) below which an open gap counts as closed when
+/// classifying the contact state: looser than [`STATE_TOLERANCE`] because P2 displacements
+/// constrained at the nodes only (active-set solvers, projections) leave gaps of that order
+/// between the nodes of curved contact edges.
+pub const GAP_TOLERANCE: f64 = 1e-6;
+
 /// Gauss–Legendre degree per piece (20 points): exact for the degree-≤ 8 polynomial integrands
 /// of P2 data with a wide margin for curved edges and gap expressions (boundary edges are few).
 const PIECE_DEGREE: usize = 39;
@@ -372,7 +378,7 @@ pub fn boundary(inp: &Input) -> Boundary {
         }
     }
     let tol = STATE_TOLERANCE * sn_scale;
-    let tol_gap = STATE_TOLERANCE * u_scale;
+    let tol_gap = GAP_TOLERANCE * u_scale;
 
     // Pieces of each contact boundary, per edge, for the intervals.
     let mut pieces: Vec<(usize, usize, Vec<Piece>)> = Vec::new(); // (boundary, edge index, pieces)

@@ -3,5 +3,6 @@
 //! Stress: σ_h = argmin over τ ∈ RT_k(T_h)² ∩ K_σ of F(u_h, τ), a convex quadratic program
 //! with bound constraints on the normal traces at the contact points ([`solve`]).
 
+pub mod displacement;
 pub mod solve;
 pub mod stress;

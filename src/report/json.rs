@@ -81,6 +81,10 @@ pub struct Displacement {
     pub name: String,
     pub space: String,
     pub reason: String,
+    /// ‖ũ_h − u_h‖_E when the file's field was projected onto K_u: the part of the error
+    /// caused by the inadmissibility, added to the bound (triangle inequality).
+    #[serde(default)]
+    pub projection_distance: Option<f64>,
 }
 
 /// Admissibility findings: for each kind the largest pointwise value (`_max`, the contract),
@@ -215,6 +219,7 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
             name: run.displacement.name.clone(),
             space: run.displacement.space.clone(),
             reason: run.displacement.reason.clone(),
+            projection_distance: run.projection_distance,
         },
         admissibility: Admissibility {
             penetration_max: a.penetration.max,

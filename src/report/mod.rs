@@ -90,6 +90,8 @@ pub struct Run {
     pub stages: Vec<Stage>,
     pub boundaries: Vec<BoundaryInfo>,
     pub marked: Option<Marking>,
+    /// ‖ũ_h − u_h‖_E when the file's displacement was projected onto K_u (DESIGN.md §5).
+    pub projection_distance: Option<f64>,
 }
 
 /// The four term values of cell `t`, in the order of [`TERMS`].

@@ -114,6 +114,18 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             ),
         ],
         vec!["stress".into(), field(&run.stress, "")],
+    ];
+    if let Some(d) = run.projection_distance {
+        rows.push(vec![
+            "projection".into(),
+            format!(
+                "‖ũ_h − u_h‖_E = {} (energy distance of the file's displacement from K_u, \
+                 added to the error bound)",
+                num(d, 6)
+            ),
+        ]);
+    }
+    rows.extend([
         vec![
             "mesh".into(),
             format!(
@@ -123,7 +135,7 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
                 mesh.lines.len()
             ),
         ],
-    ];
+    ]);
     for b in &run.boundaries {
         rows.push(vec![
             "boundary".into(),
