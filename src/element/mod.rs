@@ -19,6 +19,7 @@
 pub mod edge;
 pub mod lagrange;
 pub mod map;
+pub mod rt;
 
 pub use edge::{
     EDGE_NODES, EdgeMap, LinearEdge, QuadraticEdge, REFERENCE_NORMALS, edge_reference_point,
@@ -29,3 +30,4 @@ pub use lagrange::{
     line_p2_derivatives, line_p2_values, p1_gradients, p1_values, p2_gradients, p2_values,
 };
 pub use map::{CellMap, Jacobian, LinearTriangle, QuadraticTriangle};
+pub use rt::{RT0_DOFS, RT1_DOFS, RtOrder};
