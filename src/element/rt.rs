@@ -38,12 +38,16 @@
 //! **Piola map** (the one place where it is written: [`piola`]). On a cell with map x(ξ) and
 //! Jacobian J = ∂x/∂ξ (straight: 3 nodes; curved: 6 nodes, isoparametric P2):
 //!
-//!     φ(x(ξ)) = J(ξ) φ̂(ξ) / det J(ξ),    div φ(x(ξ)) = div̂ φ̂(ξ) / det J(ξ).
+//! ```text
+//! φ(x(ξ)) = J(ξ) φ̂(ξ) / det J(ξ),    div φ(x(ξ)) = div̂ φ̂(ξ) / det J(ξ).
+//! ```
 //!
 //! Since Jᵀ R J = det J · R for the quarter turn R(t) = (t_y, −t_x), on a physical edge
 //! x(s) = x(ξ(s)) with x'(s) = J t̂:
 //!
-//!     φ(x(s)) · n |x'(s)| = φ(x(s)) · R x'(s) = φ̂(ξ(s)) · ν̂_e = q_e(s),
+//! ```text
+//! φ(x(s)) · n |x'(s)| = φ(x(s)) · R x'(s) = φ̂(ξ(s)) · ν̂_e = q_e(s),
+//! ```
 //!
 //! n the outward unit normal of the (possibly curved) physical edge of a counter-clockwise
 //! cell (det J > 0). So the DOFs are the physical flux densities per unit of s, the physical
@@ -59,7 +63,7 @@
 //! [`local_to_global_edge`]. Interior DOFs are local to the cell.
 //!
 //! All evaluation functions take and return fixed-size arrays (slots beyond
-//! [`RtOrder::dofs`] are 0) and allocate nothing.
+//! [`RtOrder::dofs`] are 0) and allocate nothing after the one-time basis construction.
 
 use std::sync::OnceLock;
 
@@ -112,7 +116,7 @@ impl RtOrder {
         }
     }
 
-    /// The parameters s of the edge DOFs on each edge, ascending: RT_0 [½], RT_1 [0, 1].
+    /// The parameters s of the edge DOFs on each edge, ascending: RT_0 `[½]`, RT_1 `[0, 1]`.
     /// Symmetric under s ↦ 1 − s, which [`local_to_global_edge`] relies on.
     #[inline]
     pub const fn edge_points(self) -> &'static [f64] {
@@ -367,7 +371,7 @@ pub fn edge_flux_normal(t: [f64; 2]) -> [f64; 2] {
 
 /// Weights w_i(s) with q_e(s) = Σ_i w_i(s) c_{edge_dof(e, i)}: the flux density per unit of s
 /// on local edge e of the field Σ_j c_j φ_j (interior functions and the other edges' functions
-/// have zero normal trace on edge e). RT_0: [1]; RT_1: [1 − s, s]. The physical normal trace is
+/// have zero normal trace on edge e). RT_0: `[1]`; RT_1: `[1 − s, s]`. The physical normal trace is
 /// q_e(s) / |x'(s)|. Unused slot 0.
 #[inline]
 pub fn edge_trace_weights(order: RtOrder, s: f64) -> [f64; 2] {
@@ -567,10 +571,9 @@ mod tests {
     /// point values with n̂_e |ξ(1) − ξ(0)| and interior moments by quadrature.
     fn reference_dofs(order: RtOrder, f: impl Fn([f64; 2]) -> [f64; 2]) -> Vec<f64> {
         let mut d = Vec::new();
-        for e in 0..3 {
+        for (e, n) in REFERENCE_NORMALS.iter().enumerate() {
             let (a, b) = (edge_reference_point(e, 0.0), edge_reference_point(e, 1.0));
             let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-            let n = REFERENCE_NORMALS[e];
             for &s in order.edge_points() {
                 let v = f(edge_reference_point(e, s));
                 d.push((v[0] * n[0] + v[1] * n[1]) * len);
@@ -704,10 +707,10 @@ mod tests {
                     (reference_values(order, p)[j][c] - reference_values(order, m)[j][c])
                         / (2.0 * H)
                 };
-                for j in 0..order.dofs() {
+                for (j, &dj) in d.iter().enumerate().take(order.dofs()) {
                     let fd = dx([xi[0] + H, xi[1]], [xi[0] - H, xi[1]], 0, j)
                         + dx([xi[0], xi[1] + H], [xi[0], xi[1] - H], 1, j);
-                    assert_close(d[j], fd, 1e-9, &format!("{order:?} div φ̂{j}"));
+                    assert_close(dj, fd, 1e-9, &format!("{order:?} div φ̂{j}"));
                 }
             }
         }
@@ -966,7 +969,8 @@ mod tests {
         // RT_0 cannot hold a general P_1 field; RT_1 cannot hold (x², 0).
         let nodes = straight_cell();
         let map = CellMap::from_nodes(&nodes).unwrap();
-        let cases: [(RtOrder, fn([f64; 2]) -> [f64; 2]); 2] = [
+        type Field = fn([f64; 2]) -> [f64; 2];
+        let cases: [(RtOrder, Field); 2] = [
             (RtOrder::Rt0, |x| [x[1], 0.0]),
             (RtOrder::Rt1, |x| [x[0] * x[0], 0.0]),
         ];
