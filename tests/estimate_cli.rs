@@ -75,7 +75,17 @@ struct Report {
 
 fn estimate(case: &str, extra: &[&str]) -> Report {
     let dir = format!("fixtures/{case}");
-    let mut args = vec!["estimate", "--quiet", "--json", "-", "--scene"];
+    // Issue 3 evaluates the fields as the file holds them: no projection of a penetrating
+    // displacement (that is `--displacement auto`, tested in tests/reconstruct_cli.rs).
+    let mut args = vec![
+        "estimate",
+        "--quiet",
+        "--json",
+        "-",
+        "--displacement",
+        "file",
+        "--scene",
+    ];
     let scene = format!("{dir}/scene.toml");
     let solution = format!("{dir}/solution.vtu");
     args.push(&scene);

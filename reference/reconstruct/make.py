@@ -125,6 +125,7 @@ def run_case(name, src, k, note, outdir, vtu_all=False):
     tt_sk = np.array([S.z[p["slot"] + S.Nrt] for p in S.points])
     lam_sk = np.array([S.lam[p["slot"]] for p in S.points])
     tn_ng = N.tn[perm]
+    lam_ng = N.lam[perm]
     tn_scale = float(np.abs(tn_sk).max()) if len(tn_sk) else 0.0
 
     # nodal values of both minimisers at the VTU nodes
@@ -206,6 +207,9 @@ def run_case(name, src, k, note, outdir, vtu_all=False):
             max_tau_n_ngsolve=float(tn_ng.max()) if len(tn_ng) else None,
             max_tau_n_inactive=float(tn_sk[inactive].max()) if inactive else None,
             min_multiplier_active=float(lam_sk[act_sk].min()) if act_sk else None,
+            max_multiplier_active=float(lam_sk[act_sk].max()) if act_sk else None,
+            multiplier_diff_skfem_ngsolve_over_max=(float(np.abs(lam_sk[act_sk] - lam_ng[act_sk]).max()
+                                                          / lam_sk[act_sk].max()) if act_sk else 0.0),
             max_abs_tau_t=float(np.abs(tt_sk).max()) if len(tt_sk) else None,
             tau_n_diff_skfem_ngsolve_over_scale=float(np.abs(tn_sk - tn_ng).max() / tn_scale) if tn_scale else 0.0,
             tau_scale=tau_scale, tau_n_scale=tn_scale,
@@ -350,9 +354,11 @@ def write_readme(doc, outdir):
 # ------------------------------------------------------------------------------ checking
 NOISE_KEYS = {"rel_diff_skfem_ngsolve", "diff_skfem_ngsolve_over_energy", "rel_diff_vs_interpolation",
               "diff_over_energy", "rel_diff_vs_skfem", "diff_vs_skfem_over_energy",
-              "tau_n_diff_skfem_ngsolve_over_scale", "nodal_tau_diff_skfem_ngsolve_over_scale"}
-STRESS_KEYS = {"tau_n", "multiplier", "max_tau_n", "max_tau_n_ngsolve", "max_tau_n_inactive",
-               "min_multiplier_active", "max_abs_tau_t", "tension_max", "cone_violation_max", "neumann_max"}
+              "tau_n_diff_skfem_ngsolve_over_scale", "nodal_tau_diff_skfem_ngsolve_over_scale",
+              "multiplier_diff_skfem_ngsolve_over_max"}
+STRESS_KEYS = {"tau_n", "max_tau_n", "max_tau_n_ngsolve", "max_tau_n_inactive",
+               "max_abs_tau_t", "tension_max", "cone_violation_max", "neumann_max", "tau_scale", "tau_n_scale"}
+MULT_KEYS = {"multiplier", "min_multiplier_active", "max_multiplier_active"}
 
 
 def compare(a, b, path, scales, errs, rtol=1e-8):
@@ -380,6 +386,8 @@ def compare(a, b, path, scales, errs, rtol=1e-8):
         last = path.split(".")[-1].split("[")[0]
         if last in STRESS_KEYS:
             atol = 1e-8 * scales["stress"]
+        elif last in MULT_KEYS:
+            atol = 1e-10 * scales["multiplier"]
         elif any(s in path for s in ("functional", "skfem", "ngsolve", "energy", "total")):
             atol = 1e-14 * scales["energy"]
         else:
@@ -396,6 +404,8 @@ def sanity(doc):
         for t in TERMS:
             if blk["diff_skfem_ngsolve_over_energy"][t] > 1e-10 and blk["rel_diff_skfem_ngsolve"][t] > 1e-10:
                 errs.append(f"{nm}.{t}: scikit-fem and NGSolve differ by {blk['rel_diff_skfem_ngsolve'][t]:.2e}")
+    if c["multiplier_diff_skfem_ngsolve_over_max"] > 1e-8:
+        errs.append(f"multipliers differ: {c['multiplier_diff_skfem_ngsolve_over_max']:.2e} of the largest")
     if not c["active_sets_equal"]:
         errs.append("active sets of scikit-fem and NGSolve differ")
     if c["max_tau_n"] is not None and c["max_tau_n"] > 1e-10 * c["tau_n_scale"]:
@@ -440,6 +450,8 @@ def main():
     for name, src, k, note in cases:
         outdir = os.path.join(root, f"reconstruct_{name}")
         doc, timing = run_case(name, src, k, note, outdir, vtu_all=args.vtu_all)
+        with open(os.path.join(outdir, "expected.json")) as fh:
+            doc = json.load(fh)            # compare what was written (plain JSON types)
         errs = sanity(doc)
         if args.check:
             ref_dir = os.path.join(FIX, f"reconstruct_{name}")
@@ -451,7 +463,8 @@ def main():
                 ref = None
             if ref is not None:
                 scales = {"energy": ref["constrained"]["energy"],
-                          "stress": max(ref["constrained"]["tau_scale"], 1e-300)}
+                          "stress": max(ref["constrained"]["tau_scale"], 1e-300),
+                          "multiplier": ref["constrained"]["max_multiplier_active"] or 0.0}
                 compare(ref, doc, "expected", scales, errs)
                 if ref["fosls_ref_minimiser"]["file"]:
                     compare_vtu(os.path.join(ref_dir, "minimiser.vtu"), os.path.join(outdir, "minimiser.vtu"), errs)

@@ -80,7 +80,10 @@ fn boundary_nodes(
         // Outward normal of the chord (the owner runs local edge counter-clockwise).
         let tri = mesh.triangles[be.cell as usize];
         let l = be.local as usize;
-        let (s, e) = (mesh.points[tri[l] as usize], mesh.points[tri[(l + 1) % 3] as usize]);
+        let (s, e) = (
+            mesh.points[tri[l] as usize],
+            mesh.points[tri[(l + 1) % 3] as usize],
+        );
         let t = [e[0] - s[0], e[1] - s[1]];
         let len = t[0].hypot(t[1]);
         let n_out = [t[1] / len, -t[0] / len];
@@ -183,7 +186,11 @@ pub fn project(
                             let ej = strain(d, gp[j]);
                             let dd = ei[0] * ej[0] + 2.0 * ei[1] * ej[1] + ei[2] * ej[2];
                             let tr = (ei[0] + ei[2]) * (ej[0] + ej[2]);
-                            let lam = if el.lambda.is_finite() { el.lambda } else { 0.0 };
+                            let lam = if el.lambda.is_finite() {
+                                el.lambda
+                            } else {
+                                0.0
+                            };
                             k[((2 * i + c) * nn + j) * 2 + d] += wd * (2.0 * el.mu * dd + lam * tr);
                         }
                     }
@@ -223,9 +230,7 @@ pub fn project(
         }
     }
     let ku: Vec<f64> = {
-        let diff: Vec<f64> = (0..n)
-            .map(|i| u[i / 2][i % 2] - v0[i])
-            .collect();
+        let diff: Vec<f64> = (0..n).map(|i| u[i / 2][i % 2] - v0[i]).collect();
         kfull.apply(&diff)
     };
     // Tᵀ applied to the column i of the unknown: coefficients per variable.
@@ -249,10 +254,10 @@ pub fn project(
     }
     let mut b = vec![0.0; n];
     let mut entries = Vec::with_capacity(kfull.entries.len() * 2);
-    for i in 0..n {
+    for (i, &kui) in ku.iter().enumerate() {
         for &(vi, ci) in &t_of(i) {
             if vi != usize::MAX && fixed[vi].is_none() {
-                b[vi] += ci * ku[i];
+                b[vi] += ci * kui;
             }
         }
     }

@@ -349,6 +349,7 @@ pub(crate) mod fixture {
                 },
             ],
             marked: None,
+            projection_distance: None,
         }
     }
 }

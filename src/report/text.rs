@@ -125,17 +125,15 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             ),
         ]);
     }
-    rows.extend([
-        vec![
-            "mesh".into(),
-            format!(
-                "{} P{} triangles, {} line cells",
-                mesh.triangles.len(),
-                mesh.degree,
-                mesh.lines.len()
-            ),
-        ],
-    ]);
+    rows.extend([vec![
+        "mesh".into(),
+        format!(
+            "{} P{} triangles, {} line cells",
+            mesh.triangles.len(),
+            mesh.degree,
+            mesh.lines.len()
+        ),
+    ]]);
     for b in &run.boundaries {
         rows.push(vec![
             "boundary".into(),
