@@ -345,8 +345,7 @@ def write_readme(doc, outdir):
         "`reference/.venv/bin/python reference/reconstruct/make.py [--check] --only " + doc["case"] + "`.",
     ]
     if doc.get("roundoff_note"):
-        lines.insert(4, "")
-        lines.insert(5, f"**{doc['roundoff_note']}.**")
+        lines[4:4] = [f"**{doc['roundoff_note']}.**", ""]
     with open(os.path.join(outdir, "README.md"), "w") as fh:
         fh.write("\n".join(lines) + "\n")
 

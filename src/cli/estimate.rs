@@ -62,6 +62,51 @@ fn symmetric(sigma: &[[f64; 4]]) -> bool {
     asym <= 1e-12 * max
 }
 
+/// Adds the rebuilt fields to the output file: the reconstructed stress as cell averages
+/// (9 components, row-major, σ_zz = 0 as stored; one tuple per cell, zeros on lines) and the
+/// projected displacement as point data.
+fn add_reconstructed(
+    file: &mut fosls::read::vtu::VtuFile,
+    data: &mesh::Dataset,
+    stress: Option<&reconstruct::stress::Reconstruction>,
+    projection: Option<&reconstruct::displacement::Projection>,
+) {
+    use fosls::read::{decode::Scalar, vtu::DataArray};
+    let ncells = file.cell_count();
+    if let Some(r) = stress {
+        let mut values = vec![0.0; 9 * ncells];
+        for t in 0..data.mesh.triangles.len() {
+            let x = data.mesh.coords(t);
+            // The centroid value is the cell average for the affine part of the field.
+            let jac = fosls::element::map::Jacobian::new([
+                [x[1][0] - x[0][0], x[2][0] - x[0][0]],
+                [x[1][1] - x[0][1], x[2][1] - x[0][1]],
+            ]);
+            let (s, _) = r.stress.at(t, &jac, [1.0 / 3.0, 1.0 / 3.0]);
+            values[9 * t..9 * t + 9]
+                .copy_from_slice(&[s[0], s[1], 0.0, s[2], s[3], 0.0, 0.0, 0.0, 0.0]);
+        }
+        file.cell_data.push(DataArray {
+            name: "stress_reconstructed".into(),
+            scalar: Scalar::Float64,
+            components: 9,
+            component_names: ["xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"]
+                .map(String::from)
+                .to_vec(),
+            values,
+        });
+    }
+    if let Some(p) = projection {
+        file.point_data.push(DataArray {
+            name: "displacement_projected".into(),
+            scalar: Scalar::Float64,
+            components: 2,
+            component_names: vec!["x".into(), "y".into()],
+            values: p.displacement.iter().flatten().copied().collect(),
+        });
+    }
+}
+
 /// Runs the estimate command.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     for out in [args.json.as_deref(), args.output.as_deref()]
@@ -382,7 +427,14 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
 
     if let Some(out) = &args.output {
         let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
-        report::vtu::write(out, &data, &est, cells)?;
+        let mut file = report::vtu::output_file(out, &data, &est, cells);
+        add_reconstructed(
+            &mut file,
+            &data,
+            reconstruction.as_ref(),
+            projection.as_ref(),
+        );
+        fosls::write::write_vtu(out, &file, fosls::write::Placement::AppendedRaw)?;
     }
     if let Some(j) = &args.json {
         let r = report::json::report(&run, &est, &data.mesh);
