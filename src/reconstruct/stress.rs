@@ -12,7 +12,9 @@
 //!     F = ∫ Q(ε) − 2B(ε, Aτ) + B(Aτ, Aτ) + ½ w_d |div τ + f|² + ⟨u_n − g, τ_n⟩_{Γ_C},
 //!
 //! so F = ½ xᵀKx − bᵀx + const in the DOFs x, minimised by [`super::solve::solve_bound_qp`].
-//! Coulomb friction (the cone constraint) is not implemented yet.
+//! With Coulomb friction the friction term is linear on K_σ too (|τ_n| = −τ_n), and the 2D
+//! cone |τ_t| ≤ 𝔉|τ_n| at each contact DOF point becomes two bounds after the change of
+//! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
 
 use super::solve::{Lower, SolveInfo, solve_bound_qp};
 use crate::element::edge::edge_reference_point;
@@ -152,8 +154,9 @@ fn edge_point(
     (p, [t[1] / len, -t[0] / len], len, xi)
 }
 
-/// The contact frame (n, t) at a contact DOF point and the owner's orientation sign: the
-/// owner's outward flux of row r is n_r y_n + t_r y_t, the global DOF is sign × that.
+/// At a contact DOF point, the two unknowns (y₀, y₁) stored in the two rows' slots and the
+/// owner's orientation sign: the owner's outward flux of row r is c₀_r y₀ + c₁_r y₁ (the
+/// frame (n, t) without friction, the cone variables with it), the global DOF is sign × that.
 type Frame = ([f64; 2], [f64; 2], f64);
 
 /// The result of a reconstruction.
@@ -225,18 +228,26 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                     let BoundaryKind::Contact(spec) = &inp.scene.boundaries[b].kind else {
                         continue;
                     };
-                    if spec.friction > 0.0 {
-                        return Err("stress reconstruction with Coulomb friction (the cone \
-                             constraint) is not available yet"
-                            .into());
-                    }
                     let cn = spec.direction(normal);
                     let ct = [-cn[1], cn[0]];
-                    // Local (owner) flux of row r = n_r y_n + t_r y_t; global = sgn × local.
-                    frame[g0] = Some((cn, ct, sgn));
-                    frame[g1] = Some((cn, ct, sgn));
-                    fixed[g1] = Some(0.0);
-                    constrained.push(g0);
+                    let fr = spec.friction;
+                    if fr > 0.0 {
+                        // The 2D cone |y_t| ≤ −𝔉 y_n is w₁ = y_t + 𝔉y_n ≤ 0, w₂ = −y_t + 𝔉y_n ≤ 0:
+                        // y_n = (w₁ + w₂)/(2𝔉), y_t = (w₁ − w₂)/2, bounds on single unknowns.
+                        let h = 0.5 / fr;
+                        let c1 = [h * cn[0] + 0.5 * ct[0], h * cn[1] + 0.5 * ct[1]];
+                        let c2 = [h * cn[0] - 0.5 * ct[0], h * cn[1] - 0.5 * ct[1]];
+                        frame[g0] = Some((c1, c2, sgn));
+                        frame[g1] = Some((c1, c2, sgn));
+                        constrained.push(g0);
+                        constrained.push(g1);
+                    } else {
+                        // Local (owner) flux of row r = n_r y_n + t_r y_t; global = sgn × local.
+                        frame[g0] = Some((cn, ct, sgn));
+                        frame[g1] = Some((cn, ct, sgn));
+                        fixed[g1] = Some(0.0);
+                        constrained.push(g0);
+                    }
                 }
                 Condition::Dirichlet(_) => {}
             }
@@ -362,12 +373,21 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                     u[1] += inp.u[pn as usize][1] * phi[k];
                 }
                 let cn = spec.direction(normal);
+                let ct = [-cn[1], cn[0]];
                 let gap = spec.gap_at(p, cn);
                 let un = cn[0] * u[0] + cn[1] * u[1];
+                let ut = ct[0] * u[0] + ct[1] * u[1];
+                let fr = spec.friction;
                 for r in 0..2 {
                     for i in 0..nloc {
                         let flux = v[i][0] * normal[0] + v[i][1] * normal[1];
-                        bloc[r * nloc + i] -= wq * len * (un - gap) * cn[r] * flux;
+                        // Complementarity ⟨u_n − g, τ_n⟩ and, on K_σ (|τ_n| = −τ_n), friction
+                        // −𝔉⟨τ_n, |u_t|⟩ + ⟨τ_t, u_t⟩: linear in τ.
+                        let mut lin = (un - gap) * cn[r] * flux;
+                        if fr > 0.0 {
+                            lin += -fr * ut.abs() * cn[r] * flux + ut * ct[r] * flux;
+                        }
+                        bloc[r * nloc + i] -= wq * len * lin;
                     }
                 }
             }
