@@ -84,6 +84,47 @@ pub fn p2_gradients(xi: [f64; 2]) -> [[f64; 2]; 6] {
     ]
 }
 
+/// Values of the P1 (`n` = 3) or P2 (`n` = 6) shape functions at `xi`, in six slots (the
+/// unused P1 slots are 0): one signature for cells of either degree.
+#[inline]
+pub fn shape_values(n: usize, xi: [f64; 2]) -> [f64; 6] {
+    if n == 6 {
+        p2_values(xi)
+    } else {
+        let v = p1_values(xi);
+        [v[0], v[1], v[2], 0.0, 0.0, 0.0]
+    }
+}
+
+/// Reference gradients of the P1 (`n` = 3) or P2 (`n` = 6) shape functions at `xi`, in six
+/// slots (the unused P1 slots are 0).
+#[inline]
+pub fn shape_gradients(n: usize, xi: [f64; 2]) -> [[f64; 2]; 6] {
+    if n == 6 {
+        p2_gradients(xi)
+    } else {
+        let g = P1_GRADIENTS;
+        [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
+    }
+}
+
+/// The Jacobian J_{ab} = Σ_i (x_i − x_0)_a ∂̂_b φ_i of the P1/P2 cell map with node
+/// coordinates `x` (first `n` used) at the point whose reference gradients are `g`: relative to
+/// node 0 so that cells far from the origin lose no digits.
+#[inline]
+pub fn jacobian(x: &[[f64; 2]; 6], n: usize, g: &[[f64; 2]; 6]) -> super::map::Jacobian {
+    let mut m = [[0.0; 2]; 2];
+    for i in 1..n {
+        let d = [x[i][0] - x[0][0], x[i][1] - x[0][1]];
+        for a in 0..2 {
+            for b in 0..2 {
+                m[a][b] += d[a] * g[i][b];
+            }
+        }
+    }
+    super::map::Jacobian::new(m)
+}
+
 /// Linear edge shape functions (1 − s, s) at s ∈ [0, 1].
 #[inline]
 pub fn line_p1_values(s: f64) -> [f64; 2] {

@@ -21,7 +21,7 @@
 
 use super::{Admissibility, Contact, ContactInterval, ContactState, Violation};
 use crate::element::edge::{edge_reference_point, outward_normal};
-use crate::element::lagrange::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
+use crate::element::lagrange::{shape_gradients, shape_values};
 use crate::expr::Expr;
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition};
@@ -119,16 +119,7 @@ impl<'a> EdgeFields<'a> {
     /// counter-clockwise around the cell).
     fn at(&self, s: f64) -> At {
         let xi = edge_reference_point(self.local, s);
-        let (phi, g): ([f64; 6], [[f64; 2]; 6]) = if self.n == 6 {
-            (p2_values(xi), p2_gradients(xi))
-        } else {
-            let v = p1_values(xi);
-            let g = P1_GRADIENTS;
-            (
-                [v[0], v[1], v[2], 0.0, 0.0, 0.0],
-                [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]],
-            )
-        };
+        let (phi, g) = (shape_values(self.n, xi), shape_gradients(self.n, xi));
         // dξ/ds on local edges 0: (s, 0), 1: (1 − s, s), 2: (0, 1 − s).
         let dxi: [f64; 2] = match self.local {
             0 => [1.0, 0.0],

@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 
 use super::material::Elastic;
-use crate::element::lagrange::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
+use crate::element::lagrange::{jacobian, shape_gradients, shape_values};
 use crate::element::map::Jacobian;
 use crate::expr::Expr;
 use crate::mesh::Mesh;
@@ -55,29 +55,12 @@ struct Table {
 impl Table {
     fn new(degree: usize, p2: bool) -> Table {
         let rule = triangle_rule_cached(degree);
-        let values = rule
-            .points
-            .iter()
-            .map(|&xi| {
-                if p2 {
-                    p2_values(xi)
-                } else {
-                    let v = p1_values(xi);
-                    [v[0], v[1], v[2], 0.0, 0.0, 0.0]
-                }
-            })
-            .collect();
+        let n = if p2 { 6 } else { 3 };
+        let values = rule.points.iter().map(|&xi| shape_values(n, xi)).collect();
         let gradients = rule
             .points
             .iter()
-            .map(|&xi| {
-                if p2 {
-                    p2_gradients(xi)
-                } else {
-                    let g = P1_GRADIENTS;
-                    [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
-                }
-            })
+            .map(|&xi| shape_gradients(n, xi))
             .collect();
         Table {
             rule,
@@ -144,22 +127,6 @@ pub fn interior(inp: &Input) -> Interior {
     }
 }
 
-/// The Jacobian matrix J_{ab} = Σ_i x_{i,a} ∂̂_b φ_i, with node coordinates taken relative to
-/// vertex 0 so that cells far from the origin lose no digits.
-#[inline]
-fn jacobian(x: &[[f64; 2]; 6], g: &[[f64; 2]; 6], n: usize) -> Jacobian {
-    let mut m = [[0.0; 2]; 2];
-    for i in 1..n {
-        let d = [x[i][0] - x[0][0], x[i][1] - x[0][1]];
-        for a in 0..2 {
-            for b in 0..2 {
-                m[a][b] += d[a] * g[i][b];
-            }
-        }
-    }
-    Jacobian::new(m)
-}
-
 /// [constitutive, equilibrium, energy] of cell `t`.
 fn cell(
     inp: &Input,
@@ -188,7 +155,7 @@ fn cell(
         let gref = &table.gradients[q];
         let jac = match fixed {
             Some(j) => j,
-            None => jacobian(&x, gref, n),
+            None => jacobian(&x, n, gref),
         };
         let w = table.rule.weights[q] * jac.det;
         let phi = &table.values[q];

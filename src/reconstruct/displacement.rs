@@ -11,8 +11,7 @@
 //! (μ/ℓ² times the lumped mass) then makes the projection unique.
 
 use super::solve::{Lower, SolveInfo, solve_bound_qp};
-use crate::element::lagrange::{P1_GRADIENTS, p2_gradients};
-use crate::element::map::Jacobian;
+use crate::element::lagrange::{jacobian, shape_gradients};
 use crate::estimate::interior::{CURVED_DEGREE, is_curved};
 use crate::estimate::material::Elastic;
 use crate::mesh::{Mesh, NONE};
@@ -156,22 +155,8 @@ pub fn project(
         let rule = if is_curved(mesh, t) { curved } else { straight };
         let mut k = vec![0.0; 4 * nn * nn];
         for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
-            let g: [[f64; 2]; 6] = if nn == 6 {
-                p2_gradients(xi)
-            } else {
-                let g = P1_GRADIENTS;
-                [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
-            };
-            let mut m = [[0.0; 2]; 2];
-            for i in 1..nn {
-                let d = [x[i][0] - x[0][0], x[i][1] - x[0][1]];
-                for a in 0..2 {
-                    for b in 0..2 {
-                        m[a][b] += d[a] * g[i][b];
-                    }
-                }
-            }
-            let jac = Jacobian::new(m);
+            let g = shape_gradients(nn, xi);
+            let jac = jacobian(&x, nn, &g);
             let wd = w * jac.det;
             for p in 0..nn {
                 lumped[nodes[p] as usize] += wd / nn as f64;

@@ -18,7 +18,7 @@
 
 use super::solve::{Lower, SolveInfo, solve_bound_qp};
 use crate::element::edge::edge_reference_point;
-use crate::element::lagrange::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
+use crate::element::lagrange::{jacobian, shape_gradients, shape_values};
 use crate::element::map::Jacobian;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 use crate::estimate::interior::is_curved;
@@ -82,33 +82,9 @@ fn bilinear(el: &Elastic, norm: Norm, x: [f64; 4], y: [f64; 4]) -> f64 {
     }
 }
 
-/// Jacobian of the cell map at `xi` (3 or 6 nodes), relative to node 0.
-fn jacobian(x: &[[f64; 2]; 6], n: usize, xi: [f64; 2]) -> Jacobian {
-    let g: [[f64; 2]; 6] = if n == 6 {
-        p2_gradients(xi)
-    } else {
-        let g = P1_GRADIENTS;
-        [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
-    };
-    let mut m = [[0.0; 2]; 2];
-    for i in 1..n {
-        let d = [x[i][0] - x[0][0], x[i][1] - x[0][1]];
-        for a in 0..2 {
-            for b in 0..2 {
-                m[a][b] += d[a] * g[i][b];
-            }
-        }
-    }
-    Jacobian::new(m)
-}
-
-fn shape(n: usize, xi: [f64; 2]) -> [f64; 6] {
-    if n == 6 {
-        p2_values(xi)
-    } else {
-        let v = p1_values(xi);
-        [v[0], v[1], v[2], 0.0, 0.0, 0.0]
-    }
+/// Jacobian of the cell map at `xi` (3 or 6 nodes).
+fn jacobian_at(x: &[[f64; 2]; 6], n: usize, xi: [f64; 2]) -> Jacobian {
+    jacobian(x, n, &shape_gradients(n, xi))
 }
 
 /// Global unknowns: per row, the edge slots of every edge, then the interior DOFs of every
@@ -137,7 +113,7 @@ fn edge_point(
     s: f64,
 ) -> ([f64; 2], [f64; 2], f64, [f64; 2]) {
     let xi = edge_reference_point(l, s);
-    let jac = jacobian(x, n, xi);
+    let jac = jacobian_at(x, n, xi);
     let t_hat = rt::REFERENCE_EDGE_TANGENTS[l];
     let m = jac.matrix;
     let t = [
@@ -145,7 +121,7 @@ fn edge_point(
         m[1][0] * t_hat[0] + m[1][1] * t_hat[1],
     ];
     let len = t[0].hypot(t[1]);
-    let phi = shape(n, xi);
+    let phi = shape_values(n, xi);
     let mut p = [0.0; 2];
     for k in 0..n {
         p[0] += x[k][0] * phi[k];
@@ -295,15 +271,10 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         let mut kloc = vec![0.0; nl * nl];
         let mut bloc = vec![0.0; nl];
         for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-            let jac = jacobian(&x, nn, xi);
+            let jac = jacobian_at(&x, nn, xi);
             let w = wq * jac.det;
             // ε(u_h).
-            let g: [[f64; 2]; 6] = if nn == 6 {
-                p2_gradients(xi)
-            } else {
-                let g = P1_GRADIENTS;
-                [g[0], g[1], g[2], [0.0; 2], [0.0; 2], [0.0; 2]]
-            };
+            let g = shape_gradients(nn, xi);
             let mut gu = [[0.0; 2]; 2];
             for (k, &p) in nodes.iter().enumerate() {
                 let gp = jac.physical_gradient(g[k]);
@@ -318,7 +289,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             let f = match f_expr {
                 None => [0.0; 2],
                 Some(fe) => {
-                    let phi = shape(nn, xi);
+                    let phi = shape_values(nn, xi);
                     let mut p = [0.0; 2];
                     for k in 0..nn {
                         p[0] += x[k][0] * phi[k];
@@ -364,9 +335,9 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             let lr = line_rule_cached(39);
             for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
                 let (p, normal, len, xi) = edge_point(&x, nn, l, s);
-                let jac = jacobian(&x, nn, xi);
+                let jac = jacobian_at(&x, nn, xi);
                 let (v, _) = rt::piola(order, &jac, xi);
-                let phi = shape(nn, xi);
+                let phi = shape_values(nn, xi);
                 let mut u = [0.0; 2];
                 for (k, &pn) in nodes.iter().enumerate() {
                     u[0] += inp.u[pn as usize][0] * phi[k];
