@@ -112,12 +112,9 @@ pub fn interior(inp: &Input) -> Interior {
         .into_par_iter()
         .with_min_len(1024)
         .map(|t| {
-            let table = if is_curved(inp.mesh, t) {
-                &curved
-            } else {
-                &straight
-            };
-            cell(inp, t, table, constant_f, f_const)
+            let is_curved = is_curved(inp.mesh, t);
+            let table = if is_curved { &curved } else { &straight };
+            cell(inp, t, table, is_curved, constant_f, f_const)
         })
         .collect();
     Interior {
@@ -132,6 +129,7 @@ fn cell(
     inp: &Input,
     t: usize,
     table: &Table,
+    curved: bool,
     constant_f: bool,
     f_const: Option<[f64; 2]>,
 ) -> [f64; 3] {
@@ -148,7 +146,7 @@ fn cell(
         }
     }
     // P1 cells and straight P2 cells have the constant Jacobian of their vertices.
-    let fixed = (!is_curved(mesh, t)).then(|| affine_jacobian(&x));
+    let fixed = (!curved).then(|| affine_jacobian(&x));
 
     let (mut c, mut d, mut e) = (0.0, 0.0, 0.0);
     for q in 0..table.rule.weights.len() {
