@@ -75,14 +75,17 @@ struct Report {
 
 fn estimate(case: &str, extra: &[&str]) -> Report {
     let dir = format!("fixtures/{case}");
-    // Issue 3 evaluates the fields as the file holds them: no projection of a penetrating
-    // displacement (that is `--displacement auto`, tested in tests/reconstruct_cli.rs).
+    // These tests evaluate the fields as the file holds them: no projection of a penetrating
+    // displacement and no reconstruction of an inadmissible stress (that is `auto`, tested
+    // in tests/reconstruct_cli.rs).
     let mut args = vec![
         "estimate",
         "--quiet",
         "--json",
         "-",
         "--displacement",
+        "file",
+        "--stress",
         "file",
         "--scene",
     ];
@@ -369,7 +372,9 @@ fn exit_codes_marking_and_output_file() {
     let above = format!("{}", rel * 0.5);
     let below = format!("{}", rel * 2.0);
     let code = |extra: &[&str]| {
-        let mut a = vec!["estimate", "--quiet", "--scene", &scene, &solution];
+        let mut a = vec![
+            "estimate", "--quiet", "--stress", "file", "--scene", &scene, &solution,
+        ];
         a.extend_from_slice(extra);
         fosls(&a).status.code()
     };
@@ -386,6 +391,8 @@ fn exit_codes_marking_and_output_file() {
     let o = fosls(&[
         "estimate",
         "--quiet",
+        "--stress",
+        "file",
         "--scene",
         &scene,
         &solution,
@@ -458,6 +465,10 @@ fn every_encoding_gives_the_same_functional() {
             "--quiet",
             "--json",
             "-",
+            "--stress",
+            "file",
+            "--displacement",
+            "file",
             "--scene",
             scene.to_str().unwrap(),
             path.to_str().unwrap(),

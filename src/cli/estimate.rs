@@ -206,9 +206,40 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     } else {
         RtOrder::Rt1
     };
+    let frictional = scene
+        .boundaries
+        .iter()
+        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
     let reconstruct_reason = match (&fields.stress, args.stress) {
         (_, Source::Reconstruct) => Some("asked for with --stress reconstruct".to_string()),
-        (Stress::Nodal { .. }, _) => None,
+        // A conforming but inadmissible stress (tension, traction outside the cone, wrong
+        // traction data) is rebuilt in K_σ under `auto` (DESIGN.md §5).
+        (Stress::Nodal { values, name, .. }, Source::Auto) => {
+            let field = StressField::Nodal(values);
+            let check = estimate::boundary::boundary(&estimate::boundary::Input {
+                mesh: &data.mesh,
+                u,
+                sigma: field,
+                scene: &scene,
+                edges: &boundaries.edges,
+            });
+            let failures: Vec<String> = estimate::failed_checks(
+                &check.admissibility,
+                u,
+                field.scale(&data.mesh),
+                frictional,
+            )
+            .into_iter()
+            .filter(|f| f.starts_with("σ_h"))
+            .collect();
+            (!failures.is_empty()).then(|| {
+                format!(
+                    "the file's stress \"{name}\" is not in K_σ: {}",
+                    failures.join("; ")
+                )
+            })
+        }
+        (Stress::Nodal { .. }, Source::File) => None,
         (Stress::Cell { name, .. }, Source::Auto) => Some(format!(
             "\"{name}\" is cell data (piecewise constant), not H(div)-conforming"
         )),
@@ -334,10 +365,6 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             m.points_merged
         ));
     }
-    let frictional = scene
-        .boundaries
-        .iter()
-        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
     let failed = estimate::failed_checks(
         &est.admissibility,
         &fields.displacement,
