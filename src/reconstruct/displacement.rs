@@ -1,7 +1,9 @@
 //! Projection of an inadmissible displacement onto K_u (DESIGN.md §5):
 //!
-//!     ũ_h = argmin { ½ a(v − u_h, v − u_h) : v ∈ P_k(T_h)², v = u_D at the Dirichlet nodes,
-//!                     v_n ≤ g at the contact nodes },
+//! ```text
+//! ũ_h = argmin { ½ a(v − u_h, v − u_h) : v ∈ P_k(T_h)², v = u_D at the Dirichlet nodes,
+//!                 v_n ≤ g at the contact nodes },
+//! ```
 //!
 //! a(v, w) = ∫ Cε(v) : ε(w) the energy inner product (2μ ε:ε for λ = ∞), on the Lagrange nodes
 //! of the mesh. At a contact node v = n (g + z) + t w with z ≤ 0: a bound on a single unknown,

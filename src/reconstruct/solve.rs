@@ -1,6 +1,8 @@
 //! The bound-constrained quadratic program of the reconstruction (DESIGN.md §5):
 //!
-//!     minimise ½ xᵀ K x − bᵀ x   subject to  x_i ≤ 0 for i ∈ C,
+//! ```text
+//! minimise ½ xᵀ K x − bᵀ x   subject to  x_i ≤ 0 for i ∈ C,
+//! ```
 //!
 //! K symmetric positive definite, by the primal-dual active-set method (a semismooth Newton
 //! method for the complementarity function min(λ, −c x) = 0; Hintermüller, Ito, Kunisch, SIAM

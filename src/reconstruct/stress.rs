@@ -1,6 +1,8 @@
 //! Global stress reconstruction (DESIGN.md §5):
 //!
-//!     σ_h = argmin { F(u_h, τ) : τ ∈ RT_k(T_h)² ∩ K_σ },
+//! ```text
+//! σ_h = argmin { F(u_h, τ) : τ ∈ RT_k(T_h)² ∩ K_σ },
+//! ```
 //!
 //! rows of τ in RT_k (k = 0, 1; [`crate::element::rt`]), with
 //! K_σ: τn = t on Neumann and unselected (traction-free) edges, τ_t = 0 on frictionless
@@ -9,7 +11,9 @@
 //! (n, t)). F(u_h, ·) is quadratic: with e = ε(u_h) − Aτ and the preset's density Q(e) with
 //! bilinear form B,
 //!
-//!     F = ∫ Q(ε) − 2B(ε, Aτ) + B(Aτ, Aτ) + ½ w_d |div τ + f|² + ⟨u_n − g, τ_n⟩_{Γ_C},
+//! ```text
+//! F = ∫ Q(ε) − 2B(ε, Aτ) + B(Aτ, Aτ) + ½ w_d |div τ + f|² + ⟨u_n − g, τ_n⟩_{Γ_C},
+//! ```
 //!
 //! so F = ½ xᵀKx − bᵀx + const in the DOFs x, minimised by [`super::solve::solve_bound_qp`].
 //! With Coulomb friction the friction term is linear on K_σ too (|τ_n| = −τ_n), and the 2D
