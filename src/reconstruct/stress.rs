@@ -110,7 +110,7 @@ impl Dofs {
 }
 
 /// Position, outward normal and |x'(s)| at parameter s of local edge `l` of a cell.
-fn edge_point(
+pub(crate) fn edge_point(
     x: &[[f64; 2]; 6],
     n: usize,
     l: usize,
