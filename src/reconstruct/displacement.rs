@@ -446,7 +446,8 @@ pub struct Reconstruction {
     /// Frictional contact nodes with v_t = 0 (stick, or the remedy) and with v_t ≠ 0.
     pub stick: usize,
     pub slip: usize,
-    /// Nodes set to v_t = 0 by the remedy (a sign change of v_t inside an edge).
+    /// Nodes set to v_t = 0 by the remedy (a sign change of v_t inside an edge, or a node
+    /// alternating between signs in the iteration).
     pub remedied: usize,
 }
 
@@ -512,6 +513,8 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
     let mut iterations = 0;
     let mut converged = false;
     let mut remedied = 0;
+    let mut frozen = vec![false; np];
+    let mut history: Vec<Vec<Tangential>> = Vec::new();
     let (mut v, mut info);
     loop {
         iterations += 1;
@@ -550,6 +553,7 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
             let tol = 1e-10 * cweights[p] + 1e-14 * scale;
             excess[p] = r.abs() - cweights[p];
             next[p] = match tangential[p] {
+                _ if frozen[p] => Tangential::Zero,
                 // A slipping node keeps its sign while v_t is away from 0.
                 Tangential::NonNegative if vt > 0.0 => Tangential::NonNegative,
                 Tangential::NonPositive if vt < 0.0 => Tangential::NonPositive,
@@ -564,11 +568,25 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
             };
         }
         remedied = remedy(inp, &mut next, &excess);
+        // The sign iteration can cycle (two nodes of one edge taking turns at v_t = 0, or
+        // distant nodes coupled through the elasticity): on a repeat of an earlier state, the
+        // nodes that change along the cycle are held at v_t = 0 (the remedy) for good, which
+        // ends the iteration after at most as many cycles as there are frictional nodes.
+        if next != tangential
+            && let Some(j) = history.iter().position(|h| *h == next)
+        {
+            for p in 0..np {
+                if history[j..].iter().any(|h| h[p] != next[p]) {
+                    next[p] = Tangential::Zero;
+                    frozen[p] = true;
+                }
+            }
+        }
         if next == tangential {
             converged = true;
             break;
         }
-        tangential = next;
+        history.push(std::mem::replace(&mut tangential, next));
         if iterations >= MAX_FRICTION_ITERATIONS {
             break;
         }
@@ -588,7 +606,7 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
         friction_converged: converged,
         stick,
         slip,
-        remedied,
+        remedied: remedied + frozen.iter().filter(|&&f| f).count(),
     })
 }
 
