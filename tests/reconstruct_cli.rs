@@ -405,3 +405,50 @@ fn reconstruction_converges_at_the_optimal_rate() {
         );
     }
 }
+
+/// `--output` with a reconstruction also writes `<stem>_discontinuous.vtu`: every cell with
+/// its own node copies and the stress evaluated in that cell. On an exact solution whose
+/// stress is linear (in RT_1, reproduced exactly), every copy carries the exact stress, which
+/// the input file holds at the nodes.
+#[test]
+fn output_has_a_pointwise_discontinuous_copy() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = root.join("fixtures").join("exact_p2_energy");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("report.vtu");
+    let (code, _, err) = run_file(
+        &dir.join("solution.vtu"),
+        &dir.join("scene.toml"),
+        &["--stress", "reconstruct", "--output", out.to_str().unwrap()],
+    );
+    assert_eq!(code, 0, "{err}");
+    let input = fosls::read::vtu::read_vtu(&dir.join("solution.vtu")).unwrap();
+    let copy = fosls::read::vtu::read_vtu(&tmp.path().join("report_discontinuous.vtu")).unwrap();
+    let triangles = input.types.iter().filter(|&&t| t == 22).count();
+    assert_eq!(copy.points.len(), 6 * triangles);
+    assert_eq!(copy.cell_count(), triangles);
+    let exact = input
+        .point_data
+        .iter()
+        .find(|a| a.name == "stress")
+        .unwrap();
+    let stress = copy.point_data.iter().find(|a| a.name == "stress").unwrap();
+    assert_eq!(stress.components, 9);
+    // The input's layout is xx, yy, zz, xy (meshio): σ = [[xx, xy], [xy, yy]].
+    assert_eq!(exact.components, 4);
+    let smax = exact.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut worst = 0.0f64;
+    for (i, p) in copy.points.iter().enumerate() {
+        let j = input
+            .points
+            .iter()
+            .position(|q| (q[0] - p[0]).abs() < 1e-14 && (q[1] - p[1]).abs() < 1e-14)
+            .unwrap();
+        let e = &exact.values[4 * j..4 * j + 4];
+        let s = &stress.values[9 * i..9 * i + 9];
+        for (a, b) in [(s[0], e[0]), (s[1], e[3]), (s[3], e[3]), (s[4], e[1])] {
+            worst = worst.max((a - b).abs() / smax);
+        }
+    }
+    assert!(worst < 1e-10, "largest deviation {worst:e} of max |σ|");
+}

@@ -117,6 +117,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             check_output(&args.file, out)?;
         }
     }
+    if let Some(out) = &args.output {
+        check_output(&args.file, &report::vtu::discontinuous_path(out))?;
+    }
     if let Some(theta) = args.mark {
         report::mark::check_theta(theta)?;
     }
@@ -549,6 +552,11 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         };
         add_reconstructed(&mut file, &data, reconstruction.as_ref(), displacement);
         fosls::write::write_vtu(out, &file, fosls::write::Placement::AppendedRaw)?;
+        if reconstruction.is_some() || rebuilt.is_some() || projection.is_some() {
+            let copy = report::vtu::discontinuous_path(out);
+            let file = report::vtu::discontinuous_file(&copy, &data.mesh, sigma, u, &est);
+            fosls::write::write_vtu(&copy, &file, fosls::write::Placement::AppendedRaw)?;
+        }
     }
     if let Some(j) = &args.json {
         let r = report::json::report(&run, &est, &data.mesh);
