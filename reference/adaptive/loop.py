@@ -204,35 +204,47 @@ def _locate(dc, pts):
     return cells
 
 
-def _inverse_map(mapping, pts, cells, iters=12):
-    X = np.full((2, pts.shape[1], 1), 1.0 / 3.0)
-    x = pts[:, :, None]
-    for _ in range(iters):
-        F = mapping.F(X, tind=cells)
-        invDF = mapping.invDF(X, tind=cells)
-        dX = np.einsum("ijkl,jkl->ikl", invDF, x - F)
-        X = X + dX
-        if np.abs(dX).max() < 1e-14:
-            break
-    return X
+def _p2_shape(xi, eta):
+    """P2 shape functions on the reference triangle, node order v0, v1, v2, m01, m12, m20 (our `cells`):
+    values (6, n) and reference gradients (6, 2, n)."""
+    l = np.stack([1 - xi - eta, xi, eta])
+    dl = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])[:, :, None]
+    N = np.concatenate([l * (2 * l - 1), np.stack([4 * l[0] * l[1], 4 * l[1] * l[2], 4 * l[2] * l[0]])])
+    dv = (4 * l - 1)[:, None, :] * dl
+    dm = [4 * (l[j][None] * dl[i] + l[i][None] * dl[j]) for i, j in ((0, 1), (1, 2), (2, 0))]
+    return N, np.concatenate([dv, np.stack(dm)])
 
 
-def grad_at(sol, pts, chunk=200000):
-    """Gradient (2, 2, n) of the coarse displacement u_h at global points pts (2, n)."""
+def grad_at(sol, pts, iters=10):
+    """Gradient (2, 2, n), [i, j] = d u_i / d x_j, of the coarse isoparametric P2 displacement u_h at global
+    points pts (2, n): point location on the vertex triangulation, Newton for the inverse element map."""
     d = sol["dsc"]
-    ub = d.ub
-    u = sol["u"][:d.nu_dofs]
-    out = np.zeros((2, 2, pts.shape[1]))
-    for s in range(0, pts.shape[1], chunk):
-        P = pts[:, s:s + chunk]
-        cells = _locate(d, P)
-        X = _inverse_map(ub.mapping, P, cells)
-        g = np.zeros((2, 2, P.shape[1]))
-        for k in range(ub.Nbfun):
-            gk = ub.elem.gbasis(ub.mapping, X, k, tind=cells)[0].grad[:, :, :, 0]
-            g += u[ub.element_dofs[k, cells]][None, None, :] * gk
-        out[:, :, s:s + chunk] = g
-    return out
+    cells = _locate(d, pts)
+    Xn = np.ascontiguousarray(d.nodes[d.cells[cells]].transpose(1, 2, 0))   # (6, 2, n)
+    Un = np.ascontiguousarray(sol["U"][d.cells[cells]].transpose(1, 2, 0))  # (6, 2, n)
+    xi = np.full(pts.shape[1], 1.0 / 3.0)
+    eta = xi.copy()
+
+    def jac(dN):  # J[c, d] = d x_c / d xi_d, (2, 2, n)
+        return (Xn[:, :, None, :] * dN[:, None, :, :]).sum(axis=0)
+
+    for _ in range(iters):
+        N, dN = _p2_shape(xi, eta)
+        x = (N[:, None, :] * Xn).sum(axis=0)
+        J = jac(dN)
+        r = pts - x
+        det = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
+        dxi = (J[1, 1] * r[0] - J[0, 1] * r[1]) / det
+        deta = (-J[1, 0] * r[0] + J[0, 0] * r[1]) / det
+        xi, eta = xi + dxi, eta + deta
+        if max(np.abs(dxi).max(), np.abs(deta).max()) < 1e-13:
+            break
+    N, dN = _p2_shape(xi, eta)
+    J = jac(dN)
+    det = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
+    Jinv = np.array([[J[1, 1], -J[0, 1]], [-J[1, 0], J[0, 0]]]) / det
+    G = (Un[:, :, None, :] * dN[:, None, :, :]).sum(axis=0)   # d u_c / d xi_d
+    return (G[:, :, None, :] * Jinv[None, :, :, :]).sum(axis=1)
 
 
 def energy_errors(ref, sols, nu):

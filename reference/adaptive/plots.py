@@ -254,9 +254,9 @@ def draw_stress(out):
         ax = axs[0]
         ax.plot(x, -sn, ".-", ms=3, label="−σ_n (normal)")
         ax.plot(x, stt, ".-", ms=3, label="σ_t (tangential)")
-        ax.plot(x, 0.4 * np.abs(sn), ":", color="k", lw=1, label="±𝔉|σ_n|")
+        ax.plot(x, 0.4 * np.abs(sn), ":", color="k", lw=1, label="±F|σ_n| (F = 0.4)")
         ax.plot(x, -0.4 * np.abs(sn), ":", color="k", lw=1)
-        ax.plot(xx, p0 * np.sqrt(1 - (xx / a) ** 2), "--", color="tab:gray", lw=1, label="Hertz p(x)")
+        ax.plot(xx, p0 * np.sqrt(1 - (xx / a) ** 2), "--", color="tab:gray", lw=1, label="Hertz p(x), frictionless theory")
         ax2 = ax.twinx()
         ax2.plot(x, [r["u_t"] for r in R], color="tab:green", lw=1, label="u_t (slip)")
         ax2.set_ylabel("u_t", color="tab:green")

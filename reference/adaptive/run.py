@@ -192,7 +192,7 @@ def main(argv=None):
                     help="fosls --stress (default reconstruct: RT_1 minimiser of F, the talk's estimator)")
     ap.add_argument("--max-uniform-dofs", type=int, default=100000,
                     help="stop uniform refinement before the next mesh exceeds this many dofs")
-    ap.add_argument("--ref-extra", type=int, default=3, help="extra adaptive steps before the reference mesh")
+    ap.add_argument("--ref-extra", type=int, default=0, help="extra adaptive steps before the reference mesh")
     ap.add_argument("--cases", nargs="*", default=None, help="subset of case names")
     ap.add_argument("--work", default=None, help="keep the step folders (VTU, JSON) here")
     args = ap.parse_args(argv)
