@@ -30,6 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import loop as L  # noqa: E402
 import plots  # noqa: E402
+import report  # noqa: E402
 
 
 def hertz_a(P, nu):
@@ -234,6 +235,7 @@ def main(argv=None):
     summary["time_total_s"] = time.time() - t_all
     (out / "summary.json").write_text(json.dumps(L.runner._clean(summary), indent=1) + "\n")
     (out / "log.txt").write_text("\n".join(lines) + f"\ntotal {summary['time_total_s']:.1f} s\n")
+    print(f"tables: {report.update(out)}")
     if not args.work:
         shutil.rmtree(work, ignore_errors=True)
     print(f"total {summary['time_total_s']:.1f} s; written to {out}")
