@@ -98,7 +98,7 @@ def write_data(out, results, kept):
             tm = mm["tm"]
             c = tm.p[tm.t[mm["marked"]]].mean(axis=1)
             for x, y in c:
-                rows.append([name, j, float(x), float(y)])
+                rows.append([name, j, round(float(x), 6), round(float(y), 6)])
     _csv(out / "marked_cells.csv", ["case", "step", "centroid_x", "centroid_y"], rows)
     for name in (FEATURED, BLOCK):
         if name in kept:
@@ -189,7 +189,7 @@ def draw_deformed(out):
     axs[0].axhline(0, color="tab:brown", lw=1)
     axs[0].set_xlim(-1.05, 1.05)
     axs[0].set_ylim(-0.15, 0.95)
-    axs[0].set_title(f"deformed mesh ×10, {d['case']}, after {d['step']} refinements ({len(t)} triangles)")
+    axs[0].set_title(f"{d['case']}: deformed mesh (u ×10)\nafter {d['step']} refinements, {len(t)} triangles", fontsize=10)
     q = p + u
     _tri_plot(axs[1], q, t, lw=0.5)
     axs[1].axhline(0, color="tab:brown", lw=1)

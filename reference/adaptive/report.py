@@ -50,19 +50,23 @@ def tables(summary):
         out.append(f"| {n} | {R['cells']} | {R['dofs']} | {R['eta']:.3e} | {r['adaptive'][-1]['eta']:.3e} | "
                    f"{R['energy_norm']:.4f} | {R['P']:.4f} | {R['time_s']:.0f} |")
     out.append("\n### Where the adaptive loop marks\n")
-    out.append("Share (by count) of the marked triangles whose centroid lies within 2a of the contact centre (0, 0) "
-               "(a = Hertz half-width from the solver's top reaction), per adaptive step; `ends` = within 0.25a of "
-               "the distance a from (0, 0) (the contact ends); `top` = within 0.1 of the top corners (±1, 1). Block: "
-               "within 0.1 of the bottom corners (the contact ends) / of the top corners. Area shares for "
-               "comparison: the disc of radius 2a ≈ 0.16 around (0, 0) is 2.6 % of the half disc.\n")
-    out.append("| case | quantity | per adaptive step 0, 1, 2, … | mean over steps ≥ 3 |")
-    out.append("|---|---|---|---|")
+    out.append("Share (by count) of the marked triangles whose centroid lies in a region, per adaptive step, and "
+               "the region's share of the domain area (`area`, mean over the steps) for comparison. Hertz: "
+               "`within_2a` = disc of radius 2a around the contact centre (0, 0) (a = Hertz half-width from the "
+               "solver's top reaction); `near_contact_ends` / `near_stick_slip` = discs of radius a/4 around the "
+               "contact ends / the stick–slip transitions of that step's solution; `near_top_corners` = radius 0.1 "
+               "around (±1, 1). Block: radius 0.1 around the bottom corners (the contact ends) and the top corners.\n")
+    out.append("| case | region | marked share per adaptive step 0, 1, 2, … | mean over steps ≥ 3 | area share | ratio |")
+    out.append("|---|---|---|---|---|---|")
     for n, r in C.items():
-        keys = list(r["adaptive"][0]["marked_shares"].keys())
+        keys = [k for k in r["adaptive"][0]["marked_shares"] if not k.startswith("area_")]
         for k in keys:
             v = [s["marked_shares"][k] for s in r["adaptive"]]
+            ar = [s["marked_shares"]["area_" + k] for s in r["adaptive"]][3:]
             tail = v[3:] or v
-            out.append(f"| {n} | {k} | {', '.join(f'{x:.2f}' for x in v)} | {sum(tail) / len(tail):.2f} |")
+            m, A = sum(tail) / len(tail), sum(ar) / max(len(ar), 1)
+            out.append(f"| {n} | {k} | {', '.join(f'{x:.2f}' for x in v)} | **{m:.2f}** | {A:.4f} | "
+                       f"{(m / A if A > 0 else float('nan')):.0f} |")
     out.append("\n### Contact zone of the finest adaptive solutions\n")
     out.append("| case | DOFs | P | Hertz a | transitions (x: left state → right state; 0 no contact, 1 stick, 2 slip) |")
     out.append("|---|---|---|---|---|")

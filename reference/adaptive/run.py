@@ -37,20 +37,39 @@ def hertz_a(P, nu):
     return L.PR.hertz_ab(P, L.E, nu)["a"]
 
 
-def region_shares(case, tm, marked, a):
-    """Shares of the marked cells (by count) whose centroid lies in the named regions."""
-    c = tm.p[tm.t[marked]].mean(axis=1)
+def region_shares(case, tm, marked, a, trans):
+    """Shares of the marked cells (by count) whose centroid lies in the named regions, and the same regions'
+    shares of the domain area (`area_*`, from the cells of the current mesh) for comparison.  Hertz: disc of
+    radius 2a around the contact centre (0, 0); discs of radius a/4 around the contact ends and around the
+    stick/slip transitions of this step's solution (points on the arc); the top corners (radius 0.1).  Block:
+    the bottom corners (the contact ends) and the top corners (radius 0.1)."""
+    c = tm.p[tm.t].mean(axis=1)
+    pa, pb, pc = (tm.p[tm.t[:, i]] for i in range(3))
+    area = 0.5 * np.abs((pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pb[:, 1] - pa[:, 1]) * (pc[:, 0] - pa[:, 0]))
     n = max(int(marked.sum()), 1)
+
+    def near(points, r):
+        if not points:
+            return np.zeros(len(c), bool)
+        P = np.asarray(points, float)
+        return (np.linalg.norm(c[:, None, :] - P[None, :, :], axis=2) <= r).any(axis=1)
+
+    corners_top = [(-1.0, 1.0), (1.0, 1.0)]
     if case.geometry == "hertz":
-        r = np.linalg.norm(c, axis=1)
-        near_end = np.abs(np.abs(np.hypot(c[:, 0], c[:, 1])) - a) <= 0.25 * a
-        return dict(within_2a=float((r <= 2 * a).sum() / n),
-                    near_contact_ends=float(near_end.sum() / n),
-                    near_top_corners=float((np.minimum(np.hypot(c[:, 0] - 1, c[:, 1] - 1),
-                                                       np.hypot(c[:, 0] + 1, c[:, 1] - 1)) <= 0.1).sum() / n))
-    dmin = np.minimum(np.hypot(c[:, 0] - 1, c[:, 1]), np.hypot(c[:, 0] + 1, c[:, 1]))
-    dtop = np.minimum(np.hypot(c[:, 0] - 1, c[:, 1] - 1), np.hypot(c[:, 0] + 1, c[:, 1] - 1))
-    return dict(near_bottom_corners=float((dmin <= 0.1).sum() / n), near_top_corners=float((dtop <= 0.1).sum() / n))
+        arc = lambda x: (x, 1.0 - np.sqrt(1.0 - x * x))
+        ends = [arc(t["x"]) for t in trans if 0 in (t["left"], t["right"])]
+        sticks = [arc(t["x"]) for t in trans if 0 not in (t["left"], t["right"])]
+        regions = dict(within_2a=np.linalg.norm(c, axis=1) <= 2 * a, near_contact_ends=near(ends, 0.25 * a),
+                       near_stick_slip=near(sticks, 0.25 * a), near_top_corners=near(corners_top, 0.1))
+        if not case.friction:
+            regions.pop("near_stick_slip")
+    else:
+        regions = dict(near_bottom_corners=near([(-1.0, 0.0), (1.0, 0.0)], 0.1), near_top_corners=near(corners_top, 0.1))
+    out = {}
+    for k, sel in regions.items():
+        out[k] = float((sel & marked).sum() / n)
+        out["area_" + k] = float(area[sel].sum() / area.sum())
+    return out
 
 
 def contact_profile(case, tm, sol):
@@ -108,14 +127,15 @@ def run_case(case, args, work, log):
             rep, marked, eta_cells, t_est = L.estimate(folder, args.theta, args.stress)
             a = hertz_a(sol["P"], case.nu) if case.geometry == "hertz" else None
             prof = contact_profile(case, m, sol)
+            trans = transitions(prof)
             st = dict(step=k, cells=int(len(m.t)), dofs=sol["ndofs"], eta=rep["eta"], relative=rep["relative"],
                       functional=rep["functional"], energy=rep["energy"], norm=rep["norm"],
                       marked=int(marked.sum()), marked_eta2_share=rep["marked"]["share"],
-                      marked_shares=region_shares(case, m, marked, a), P=sol["P"], hertz_a=a,
+                      marked_shares=region_shares(case, m, marked, a, trans), P=sol["P"], hertz_a=a,
                       active_set_iterations=sol["iterations"], contact=dict(
                           active_length=rep["contact"]["active_length"], stick_length=rep["contact"]["stick_length"],
                           slip_length=rep["contact"]["slip_length"], normal_force=rep["contact"]["normal_force"]),
-                      transitions=transitions(prof), stress_source=rep["stress"]["source"],
+                      transitions=trans, stress_source=rep["stress"]["source"],
                       bound_guaranteed=rep["bound"]["guaranteed"],
                       time_solve_s=sol["time"], time_fosls_s=t_est)
             st["time_step_s"] = time.time() - t0
