@@ -51,7 +51,7 @@ def tables(summary):
                    f"{R['energy_norm']:.4f} | {R['P']:.4f} | {R['time_s']:.0f} |")
     out.append("\n### Where the adaptive loop marks\n")
     out.append("Share (by count) of the marked triangles whose centroid lies in a region, per adaptive step, and "
-               "the region's share of the domain area (`area`, mean over the steps) for comparison. Hertz: "
+               "the region's share of the domain area (`area share`, geometric, mean over steps ≥ 3; `ratio` = marked share / area share) for comparison. Hertz: "
                "`within_2a` = disc of radius 2a around the contact centre (0, 0) (a = Hertz half-width from the "
                "solver's top reaction); `near_contact_ends` / `near_stick_slip` = discs of radius a/4 around the "
                "contact ends / the stick–slip transitions of that step's solution; `near_top_corners` = radius 0.1 "

@@ -39,13 +39,12 @@ def hertz_a(P, nu):
 
 def region_shares(case, tm, marked, a, trans):
     """Shares of the marked cells (by count) whose centroid lies in the named regions, and the same regions'
-    shares of the domain area (`area_*`, from the cells of the current mesh) for comparison.  Hertz: disc of
+    shares of the domain area (`area_*`, geometric) for comparison.  Hertz: disc of
     radius 2a around the contact centre (0, 0); discs of radius a/4 around the contact ends and around the
     stick/slip transitions of this step's solution (points on the arc); the top corners (radius 0.1).  Block:
-    the bottom corners (the contact ends) and the top corners (radius 0.1)."""
+    the bottom corners (the contact ends) and the top corners (radius 0.1).  A disc counts a cell when the cell's
+    centroid lies in it."""
     c = tm.p[tm.t].mean(axis=1)
-    pa, pb, pc = (tm.p[tm.t[:, i]] for i in range(3))
-    area = 0.5 * np.abs((pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pb[:, 1] - pa[:, 1]) * (pc[:, 0] - pa[:, 0]))
     n = max(int(marked.sum()), 1)
 
     def near(points, r):
@@ -59,17 +58,41 @@ def region_shares(case, tm, marked, a, trans):
         arc = lambda x: (x, 1.0 - np.sqrt(1.0 - x * x))
         ends = [arc(t["x"]) for t in trans if 0 in (t["left"], t["right"])]
         sticks = [arc(t["x"]) for t in trans if 0 not in (t["left"], t["right"])]
-        regions = dict(within_2a=np.linalg.norm(c, axis=1) <= 2 * a, near_contact_ends=near(ends, 0.25 * a),
-                       near_stick_slip=near(sticks, 0.25 * a), near_top_corners=near(corners_top, 0.1))
+        discs = dict(within_2a=([(0.0, 0.0)], 2 * a), near_contact_ends=(ends, 0.25 * a),
+                     near_stick_slip=(sticks, 0.25 * a), near_top_corners=(corners_top, 0.1))
         if not case.friction:
-            regions.pop("near_stick_slip")
+            discs.pop("near_stick_slip")
     else:
-        regions = dict(near_bottom_corners=near([(-1.0, 0.0), (1.0, 0.0)], 0.1), near_top_corners=near(corners_top, 0.1))
+        discs = dict(near_bottom_corners=([(-1.0, 0.0), (1.0, 0.0)], 0.1), near_top_corners=(corners_top, 0.1))
+    regions = {k: near(*v) for k, v in discs.items()}
     out = {}
     for k, sel in regions.items():
         out[k] = float((sel & marked).sum() / n)
-        out["area_" + k] = float(area[sel].sum() / area.sum())
+        out["area_" + k] = geometric_share(case.geometry, *discs[k])
     return out
+
+
+def geometric_share(geometry, centres, r):
+    """Share of the domain's area covered by the union of the discs of radius r around centres (sampled on a
+    grid of spacing r/150 over their bounding box)."""
+    if not centres:
+        return 0.0
+    P = np.asarray(centres, float)
+    h = r / 150.0
+    lo, hi = P.min(axis=0) - r, P.max(axis=0) + r
+    xs = np.arange(lo[0] + h / 2, hi[0], h)
+    ys = np.arange(lo[1] + h / 2, hi[1], h)
+    X, Y = np.meshgrid(xs, ys)
+    inside = np.zeros(X.shape, bool)
+    for px, py in P:
+        inside |= (X - px) ** 2 + (Y - py) ** 2 <= r * r
+    if geometry == "hertz":
+        dom = (Y <= 1.0) & (X ** 2 + (Y - 1.0) ** 2 <= 1.0)
+        total = np.pi / 2
+    else:
+        dom = (np.abs(X) <= 1.0) & (Y >= 0.0) & (Y <= 1.0)
+        total = 2.0
+    return float((inside & dom).sum() * h * h / total)
 
 
 def contact_profile(case, tm, sol):
