@@ -183,19 +183,21 @@ def draw_deformed(out):
         return []
     d = json.load(open(f))
     p, t, u = np.array(d["points"]), np.array(d["triangles"]), np.array(d["displacement"])
-    fig, axs = plt.subplots(1, 2, figsize=(11, 4.6), gridspec_kw=dict(width_ratios=[1.4, 1]))
-    q = p + 10 * u
+    fig, axs = plt.subplots(2, 1, figsize=(9, 7.5), gridspec_kw=dict(height_ratios=[1.2, 1]))
+    q = p + u
     _tri_plot(axs[0], q, t)
     axs[0].axhline(0, color="tab:brown", lw=1)
     axs[0].set_xlim(-1.05, 1.05)
-    axs[0].set_ylim(-0.15, 0.95)
-    axs[0].set_title(f"{d['case']}: deformed mesh (u ×10)\nafter {d['step']} refinements, {len(t)} triangles", fontsize=10)
-    q = p + u
+    axs[0].set_ylim(-0.05, 1.0)
+    axs[0].set_title(f"{d['case']}: deformed mesh (true scale) after {d['step']} refinements, {len(t)} triangles",
+                     fontsize=10)
     _tri_plot(axs[1], q, t, lw=0.5)
     axs[1].axhline(0, color="tab:brown", lw=1)
-    axs[1].set_xlim(-0.2, 0.2)
-    axs[1].set_ylim(-0.01, 0.12)
-    axs[1].set_title("zoom at the contact zone (true scale)")
+    axs[1].set_xlim(-0.15, 0.15)
+    axs[1].set_ylim(-0.001, 0.02)
+    axs[1].set_aspect("auto")
+    axs[1].set_title("zoom at the contact zone (y stretched 5.7×): the deformed boundary lies on the plane y = 0 "
+                     "for |x| < a", fontsize=9)
     fig.tight_layout()
     g = out / "deformed_mesh.png"
     fig.savefig(g, dpi=DPI)
@@ -292,7 +294,7 @@ def draw_marked(out):
     files = []
     mc = [{k: _num(v) for k, v in r.items()} for r in _read_csv(out / "marked_cells.csv")] \
         if (out / "marked_cells.csv").exists() else []
-    for name, xl, yl in ((FEATURED, (-0.16, 0.16), (-0.005, 0.08)), (BLOCK, (-1.02, 1.02), (-0.02, 1.02))):
+    for name in (FEATURED, BLOCK):
         f = out / f"final_mesh_{name}.json"
         if not f.exists():
             continue
@@ -300,33 +302,56 @@ def draw_marked(out):
         p, t = np.array(d["points"]), np.array(d["triangles"])
         face = np.array(["none"] * len(t), dtype=object)
         face[d["marked"]] = "tab:orange"
-        fig, axs = plt.subplots(1, 2, figsize=(11, 4.4), gridspec_kw=dict(width_ratios=[1.5, 1]))
-        _tri_plot(axs[0], p, t, face=list(face), lw=0.3)
-        for tr in d["transitions"]:
-            axs[0].axvline(tr["x"], color="tab:red" if 0 in (tr["left"], tr["right"]) else "tab:blue", lw=0.8)
-        axs[0].set_xlim(*xl)
-        axs[0].set_ylim(*yl)
-        axs[0].set_title(f"{name}: mesh after {d['step']} refinements ({len(t)} triangles), marked cells orange;\n"
-                         "red lines: contact ends, blue lines: stick/slip transitions", fontsize=9)
         xs = np.array([r["centroid_x"] for r in mc if r["case"] == name])
         ys = np.array([r["centroid_y"] for r in mc if r["case"] == name])
+        lines = lambda ax: [ax.axvline(tr["x"], color="tab:red" if 0 in (tr["left"], tr["right"]) else "tab:blue",
+                                       lw=0.8) for tr in d["transitions"]]
         if name == FEATURED:
+            fig = plt.figure(figsize=(11, 7.2))
+            gs = fig.add_gridspec(2, 3, height_ratios=[1, 1.3])
+            ax0 = fig.add_subplot(gs[0, :])
+            _tri_plot(ax0, p, t, face=list(face), lw=0.25)
+            lines(ax0)
+            ax0.set_xlim(-0.1, 0.1)
+            ax0.set_ylim(-0.001, 0.025)
+            ax0.set_title(f"{name}: mesh after {d['step']} refinements ({len(t)} triangles), cells marked in the last "
+                          "step orange; red lines: contact ends, blue lines: stick/slip transitions", fontsize=9)
+            ends = [tr["x"] for tr in d["transitions"] if 0 in (tr["left"], tr["right"]) and tr["x"] > 0]
+            sticks = [tr["x"] for tr in d["transitions"] if 0 not in (tr["left"], tr["right"]) and tr["x"] > 0]
+            for j, (xc, lab) in enumerate(((ends[0] if ends else 0.078, "contact end"),
+                                           (sticks[0] if sticks else 0.035, "stick/slip transition"))):
+                ax = fig.add_subplot(gs[1, j])
+                _tri_plot(ax, p, t, face=list(face), lw=0.3)
+                lines(ax)
+                yc = 1.0 - np.sqrt(1.0 - xc * xc)
+                ax.set_xlim(xc - 0.0025, xc + 0.0025)
+                ax.set_ylim(yc - 0.0004, yc + 0.0028)
+                ax.set_title(f"zoom at the {lab} x = {xc:.4f}", fontsize=9)
+            ax = fig.add_subplot(gs[1, 2])
             sel = ys < 0.1
-            axs[1].hist(xs[sel], bins=np.linspace(-0.15, 0.15, 61), color="tab:orange")
-            axs[1].set_xlabel("centroid x of marked cells with y < 0.1 (all steps)")
+            ax.hist(xs[sel], bins=np.linspace(-0.15, 0.15, 61), color="tab:orange")
+            ax.set_xlabel("centroid x of marked cells with y < 0.1 (all steps)", fontsize=8)
             a = d["hertz_a"]
             for s in (-1, 1):
-                axs[1].axvline(s * a, color="tab:red", lw=0.8)
+                ax.axvline(s * a, color="tab:red", lw=0.8)
             for tr in d["transitions"]:
                 if 0 not in (tr["left"], tr["right"]):
-                    axs[1].axvline(tr["x"], color="tab:blue", lw=0.8)
+                    ax.axvline(tr["x"], color="tab:blue", lw=0.8)
+            ax.set_title("where the loop refined (red ±a Hertz, blue stick/slip)", fontsize=9)
         else:
+            fig, axs = plt.subplots(1, 2, figsize=(11, 4.4), gridspec_kw=dict(width_ratios=[1.5, 1]))
+            _tri_plot(axs[0], p, t, face=list(face), lw=0.3)
+            lines(axs[0])
+            axs[0].set_xlim(-1.02, 1.02)
+            axs[0].set_ylim(-0.02, 1.02)
+            axs[0].set_title(f"{name}: mesh after {d['step']} refinements ({len(t)} triangles), marked cells "
+                             "orange;\nblue line: stick/slip transition", fontsize=9)
             axs[1].plot(xs, ys, ".", ms=2, color="tab:orange")
             axs[1].set_aspect("equal")
             axs[1].set_xlim(-1.02, 1.02)
             axs[1].set_ylim(-0.02, 1.02)
             axs[1].set_xlabel("centroids of the marked cells (all steps)")
-        axs[1].set_title("where the loop refined", fontsize=9)
+            axs[1].set_title("where the loop refined", fontsize=9)
         fig.tight_layout()
         g = out / f"marked_{name}.png"
         fig.savefig(g, dpi=DPI)
