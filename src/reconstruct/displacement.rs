@@ -12,7 +12,7 @@
 //! Without Dirichlet nodes the energy form has rigid motions in its kernel; a small L² term
 //! (μ/ℓ² times the lumped mass) then makes the projection unique.
 
-use super::solve::{Lower, SolveInfo, solve_bound_qp};
+use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
 use super::stress::edge_point;
 use crate::element::lagrange::{jacobian, shape_gradients, shape_values};
 use crate::element::map::Jacobian;
@@ -400,7 +400,16 @@ pub fn project(
     let tangential = vec![Tangential::Free; np];
     let frames = Frames::new(&dir, &con, &tangential);
     let (k, b, bounded) = frames.reduce(&kfull, &f);
-    let (y, info) = solve_bound_qp(&k, &b, &bounded, super::stress::MAX_ITERATIONS)?;
+    // The nodes that penetrate go onto the obstacle: start the active set there.
+    let guess: Vec<usize> = bounded
+        .iter()
+        .copied()
+        .filter(|&i| {
+            let p = i / 2;
+            con[p].is_some_and(|(n, g)| n[0] * u[p][0] + n[1] * u[p][1] >= g)
+        })
+        .collect();
+    let (y, info) = solve_bound_qp_from(&k, &b, &bounded, super::stress::MAX_ITERATIONS, &guess)?;
     let v = frames.expand(&y);
     let e = Lower {
         n: 2 * np,
@@ -437,7 +446,7 @@ pub struct ReconstructInput<'a> {
 /// A reconstructed displacement and what it took.
 pub struct Reconstruction {
     pub displacement: Vec<[f64; 2]>,
-    /// The last QP solve.
+    /// The last QP solve, with `iterations` summed over all of them.
     pub info: SolveInfo,
     /// Sign-structure (stick/slip) updates of the friction term; 1 without friction.
     pub friction_iterations: usize,
@@ -515,6 +524,8 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
     let mut remedied = 0;
     let mut frozen = vec![false; np];
     let mut history: Vec<Vec<Tangential>> = Vec::new();
+    let mut last_active: Vec<usize> = Vec::new();
+    let mut qp_iterations = 0;
     let (mut v, mut info);
     loop {
         iterations += 1;
@@ -533,9 +544,22 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
         }
         let frames = Frames::new(&dir, &con, &tangential);
         let (kr, br, bounded) = frames.reduce(&k, &fs);
-        let (y, i) = solve_bound_qp(&kr, &br, &bounded, super::stress::MAX_ITERATIONS)?;
+        // Each sign update starts from the last active set (the same variables): most of the
+        // normal contact constraints do not change between the updates.
+        let (y, i) = solve_bound_qp_from(
+            &kr,
+            &br,
+            &bounded,
+            super::stress::MAX_ITERATIONS,
+            &last_active,
+        )?;
+        last_active = bounded.iter().copied().filter(|&i| y[i] == 0.0).collect();
         v = frames.expand(&y);
-        info = i;
+        qp_iterations += i.iterations;
+        info = SolveInfo {
+            iterations: qp_iterations,
+            ..i
+        };
         if !frictional.iter().any(|&x| x) {
             converged = true;
             break;
