@@ -450,13 +450,13 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             r.info.kkt_residual,
             if r.stick + r.slip > 0 {
                 format!(
-                    "; friction: {} stick/slip updates{}, {} stick and {} slip nodes, {} set to \
-                     v_t = 0 by the remedy (sign change of v_t inside an edge)",
+                    "; friction (v_t split into a − b ≥ 0): {} QP solves{}, {} stick and {} slip \
+                     nodes, {} held at v_t = 0 by the remedy (sign change of v_t inside an edge)",
                     r.friction_iterations,
                     if r.friction_converged {
                         ""
                     } else {
-                        " (NOT settled: iteration cap)"
+                        " (NOT settled: cap on the remedy rounds)"
                     },
                     r.stick,
                     r.slip,

@@ -186,24 +186,27 @@ fn stiffness(mesh: &Mesh, a: f64, b: f64) -> (Vec<(usize, usize, f64)>, Vec<f64>
     (entries, lumped)
 }
 
-/// What the tangential unknown of a contact node may do (the friction sign structure of
-/// [`reconstruct`]; always `Free` for a projection).
+/// What the tangential unknown of a contact node may do (always `Free` for a projection).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Tangential {
     Free,
-    /// v_t = 0 (stick, or the talk's remedy).
+    /// v_t = 0 (the talk's remedy).
     Zero,
-    /// v_t ≥ 0, resp. ≤ 0 (slip with a fixed sign: |v_t| = ±v_t is linear).
-    NonNegative,
-    NonPositive,
+    /// v_t = a − b with a, b ≥ 0, for the friction term c_p |v_t(p)| = c_p (a + b) at the
+    /// minimiser (where at most one of a, b is positive).
+    Split,
 }
 
 /// The change of variables v = v₀ + T y of the nodal QPs: T is the identity except at contact
-/// nodes, where v = n (g + y₀) + s t y₁ (s = −1 for `NonNegative`, so that every bound reads
-/// y ≤ 0); Dirichlet unknowns and `Zero` tangents are fixed.
+/// nodes, where v = n (g + y₀) + t y₁, or with `Split` v = n (g + y₀) + t (y_b − y₁) with the
+/// extra variable y_b (a = −y₁, b = −y_b), so that every bound reads y ≤ 0; Dirichlet unknowns
+/// and `Zero` tangents are fixed.
 struct Frames<'a> {
     con: &'a [Option<([f64; 2], f64)>],
-    tangential: &'a [Tangential],
+    /// Index of the extra variable of each `Split` node (else `usize::MAX`).
+    extra: Vec<usize>,
+    /// Variables: 2 per node, then the extra ones.
+    n: usize,
     fixed: Vec<Option<f64>>,
 }
 
@@ -211,43 +214,50 @@ impl Frames<'_> {
     fn new<'a>(
         dir: &[Option<[f64; 2]>],
         con: &'a [Option<([f64; 2], f64)>],
-        tangential: &'a [Tangential],
+        tangential: &[Tangential],
     ) -> Frames<'a> {
-        let mut fixed = vec![None; 2 * dir.len()];
+        let np = dir.len();
+        let mut extra = vec![usize::MAX; np];
+        let mut n = 2 * np;
+        let mut fixed = vec![None; 2 * np];
         for (p, d) in dir.iter().enumerate() {
             if let Some(ud) = d {
                 fixed[2 * p] = Some(ud[0]);
                 fixed[2 * p + 1] = Some(ud[1]);
-            } else if con[p].is_some() && tangential[p] == Tangential::Zero {
-                fixed[2 * p + 1] = Some(0.0);
+            } else if con[p].is_some() {
+                match tangential[p] {
+                    Tangential::Zero => fixed[2 * p + 1] = Some(0.0),
+                    Tangential::Split => {
+                        extra[p] = n;
+                        n += 1;
+                        fixed.push(None);
+                    }
+                    Tangential::Free => {}
+                }
             }
         }
         Frames {
             con,
-            tangential,
+            extra,
+            n,
             fixed,
         }
     }
 
-    fn tangent_sign(&self, p: usize) -> f64 {
-        if self.tangential[p] == Tangential::NonNegative {
-            -1.0
-        } else {
-            1.0
-        }
-    }
-
     /// The column entries of Tᵀ for Cartesian unknown i: (variable, coefficient).
-    fn of(&self, i: usize) -> [(usize, f64); 2] {
+    fn of(&self, i: usize) -> [(usize, f64); 3] {
         let p = i / 2;
         match self.con[p] {
             Some((n, _)) if self.fixed[2 * p].is_none() => {
-                let s = self.tangent_sign(p);
                 let t = [-n[1], n[0]];
                 let c = i % 2;
-                [(2 * p, n[c]), (2 * p + 1, s * t[c])]
+                if self.extra[p] == usize::MAX {
+                    [(2 * p, n[c]), (2 * p + 1, t[c]), (usize::MAX, 0.0)]
+                } else {
+                    [(2 * p, n[c]), (2 * p + 1, -t[c]), (self.extra[p], t[c])]
+                }
             }
-            _ => [(i, 1.0), (usize::MAX, 0.0)],
+            _ => [(i, 1.0), (usize::MAX, 0.0), (usize::MAX, 0.0)],
         }
     }
 
@@ -264,16 +274,19 @@ impl Frames<'_> {
         v0
     }
 
-    /// minimise ½ vᵀKv − fᵀv over v = v₀ + T y with the fixed variables eliminated: the
-    /// reduced matrix (TᵀKT, identity rows at fixed variables), its right-hand side, and the
-    /// variables bounded by y ≤ 0.
-    fn reduce(&self, k: &Lower, f: &[f64]) -> (Lower, Vec<f64>, Vec<usize>) {
-        let n = k.n;
-        let v0 = self.v0(n / 2);
+    /// minimise ½ vᵀKv − fᵀv + Σ_p c_p (a_p + b_p) over v = v₀ + T y with the fixed variables
+    /// eliminated: the reduced matrix (TᵀKT, identity rows at fixed variables, `delta` added
+    /// on the diagonal of the split variables, whose sum a + b is otherwise only held by the
+    /// bounds), its right-hand side, and the variables bounded by y ≤ 0. `c` is per node
+    /// (empty: no split nodes).
+    fn reduce(&self, k: &Lower, f: &[f64], c: &[f64], delta: f64) -> (Lower, Vec<f64>, Vec<usize>) {
+        let n = self.n;
+        let np = k.n / 2;
+        let v0 = self.v0(np);
         let kv0 = k.apply(&v0);
         let fixed = &self.fixed;
         let mut b = vec![0.0; n];
-        for i in 0..n {
+        for i in 0..k.n {
             for &(a, ca) in &self.of(i) {
                 if a != usize::MAX && fixed[a].is_none() {
                     b[a] += ca * (f[i] - kv0[i]);
@@ -316,14 +329,17 @@ impl Frames<'_> {
             }
         }
         let mut bounded = Vec::new();
-        for p in 0..n / 2 {
+        for p in 0..np {
             if self.con[p].is_some() && fixed[2 * p].is_none() {
                 bounded.push(2 * p);
-                if matches!(
-                    self.tangential[p],
-                    Tangential::NonNegative | Tangential::NonPositive
-                ) {
-                    bounded.push(2 * p + 1);
+                if self.extra[p] != usize::MAX {
+                    // Friction c_p (a + b) = −c_p (y₁ + y_b): a linear cost, and the split's
+                    // regularisation.
+                    for q in [2 * p + 1, self.extra[p]] {
+                        bounded.push(q);
+                        b[q] += c[p];
+                        entries.push((q, q, delta));
+                    }
                 }
             }
         }
@@ -332,14 +348,18 @@ impl Frames<'_> {
 
     /// v = v₀ + T y.
     fn expand(&self, y: &[f64]) -> Vec<[f64; 2]> {
-        (0..y.len() / 2)
+        (0..self.extra.len())
             .map(|p| match self.con[p] {
                 Some((n, g)) if self.fixed[2 * p].is_none() => {
-                    let s = self.tangent_sign(p);
                     let t = [-n[1], n[0]];
+                    let w = if self.extra[p] == usize::MAX {
+                        y[2 * p + 1]
+                    } else {
+                        y[self.extra[p]] - y[2 * p + 1]
+                    };
                     [
-                        n[0] * (g + y[2 * p]) + s * t[0] * y[2 * p + 1],
-                        n[1] * (g + y[2 * p]) + s * t[1] * y[2 * p + 1],
+                        n[0] * (g + y[2 * p]) + t[0] * w,
+                        n[1] * (g + y[2 * p]) + t[1] * w,
                     ]
                 }
                 _ => [y[2 * p], y[2 * p + 1]],
@@ -399,7 +419,7 @@ pub fn project(
     let f = kfull.apply(&flat);
     let tangential = vec![Tangential::Free; np];
     let frames = Frames::new(&dir, &con, &tangential);
-    let (k, b, bounded) = frames.reduce(&kfull, &f);
+    let (k, b, bounded) = frames.reduce(&kfull, &f, &[], 0.0);
     // The nodes that penetrate go onto the obstacle: start the active set there.
     let guess: Vec<usize> = bounded
         .iter()
@@ -448,19 +468,19 @@ pub struct Reconstruction {
     pub displacement: Vec<[f64; 2]>,
     /// The last QP solve, with `iterations` summed over all of them.
     pub info: SolveInfo,
-    /// Sign-structure (stick/slip) updates of the friction term; 1 without friction.
+    /// QP solves (1, plus one per round of the remedy).
     pub friction_iterations: usize,
-    /// Whether the stick/slip structure settled before the cap.
+    /// Whether the remedy settled before the cap.
     pub friction_converged: bool,
-    /// Frictional contact nodes with v_t = 0 (stick, or the remedy) and with v_t ≠ 0.
+    /// Frictional contact nodes with v_t = 0 (to 1e-12 of max |v|; stick, or the remedy) and
+    /// with v_t ≠ 0.
     pub stick: usize,
     pub slip: usize,
-    /// Nodes set to v_t = 0 by the remedy (a sign change of v_t inside an edge, or a node
-    /// alternating between signs in the iteration).
+    /// Nodes held at v_t = 0 by the remedy (a sign change of v_t inside an edge).
     pub remedied: usize,
 }
 
-/// Cap on stick/slip sign updates of [`reconstruct`].
+/// Cap on the rounds of the remedy in [`reconstruct`].
 pub const MAX_FRICTION_ITERATIONS: usize = 50;
 
 /// Reconstructs the displacement from a stress (DESIGN.md §5):
@@ -474,12 +494,11 @@ pub const MAX_FRICTION_ITERATIONS: usize = 50;
 /// k the mesh degree and Q(e) = B(e, e) the preset's density: ½ vᵀKv − fᵀv with
 /// K = 2∫B(ε(φ_i), ε(φ_j)) and f_j = 2∫B(Aσ_h, ε(φ_j)) − ∫_{Γ_C} (σ_n n + σ_t t)·φ_j (the
 /// σ_t part with friction only: the frictionless functional has no friction term).
-/// |v_t| is the nonsmooth part: with a sign s_p fixed per contact node it is the linear
-/// Σ_p s_p c_p v_t(p), c_p = ∫ 𝔉|σ_n| φ_p (exact for P1 when v_t keeps its sign on each edge),
-/// so each step is a bound-constrained QP (s_p v_t(p) ≥ 0, or v_t(p) = 0 for stick). The
-/// signs follow the subgradient condition |r_p| ≤ c_p (stick) / r_p = s_p c_p (slip) of the
-/// tangential residual r_p; where v_t would change sign inside an edge the talk's remedy
-/// forces v_t = 0 at the weaker node, so that v_t vanishes on an interval.
+/// |v_t| is the nonsmooth part: lumped to Σ_p c_p |v_t(p)|, c_p = ∫ 𝔉|σ_n| φ_p (exact for P1
+/// when v_t keeps its sign on each edge), and with v_t(p) = a_p − b_p, a_p, b_p ≥ 0, it becomes
+/// the linear Σ_p c_p (a_p + b_p) of a bound-constrained QP (at its minimiser one of a_p, b_p
+/// vanishes). Where v_t would change sign inside an edge the talk's remedy holds the node with
+/// the smaller |v_t| at v_t = 0 and the QP is solved again.
 pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
     let mesh = inp.mesh;
     let np = mesh.points.len();
@@ -506,118 +525,100 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
     let mut f = volume_load(mesh, inp.sigma, &el, a, b);
     let (cweights, frictional) = contact_load(inp, &con, &mut f);
 
+    // With friction: c_p |v_t(p)| by the split v_t = a − b (exact QP for the lumped term),
+    // started with every frictional node sticking; then the talk's remedy where v_t changes
+    // sign inside an edge (the lumped term would overrate |v_t| there): the weaker node is
+    // held at v_t = 0 and the QP solved again.
     let mut tangential: Vec<Tangential> = (0..np)
         .map(|p| {
             if frictional[p] {
-                Tangential::Zero
+                Tangential::Split
             } else {
                 Tangential::Free
             }
         })
         .collect();
-    let scale = f
+    let maxdiag = k
+        .entries
         .iter()
-        .fold(0.0f64, |m, v| m.max(v.abs()))
-        .max(f64::MIN_POSITIVE);
+        .filter(|e| e.0 == e.1)
+        .fold(0.0f64, |m, e| m.max(e.2.abs()));
+    let delta = 1e-10 * maxdiag;
+    let vscale = |v: &[[f64; 2]]| {
+        v.iter()
+            .fold(0.0f64, |m, x| m.max(x[0].abs()).max(x[1].abs()))
+    };
     let mut iterations = 0;
     let mut converged = false;
     let mut remedied = 0;
-    let mut frozen = vec![false; np];
-    let mut history: Vec<Vec<Tangential>> = Vec::new();
-    let mut last_active: Vec<usize> = Vec::new();
     let mut qp_iterations = 0;
+    let mut guess: Vec<usize> = Vec::new();
     let (mut v, mut info);
     loop {
         iterations += 1;
-        // The friction term s_p c_p v_t(p) of the current sign structure.
-        let mut fs = f.clone();
-        for p in 0..np {
-            let s = match tangential[p] {
-                Tangential::NonNegative => 1.0,
-                Tangential::NonPositive => -1.0,
-                _ => continue,
-            };
-            let (n, _) = con[p].expect("frictional nodes are contact nodes");
-            let t = [-n[1], n[0]];
-            fs[2 * p] -= s * cweights[p] * t[0];
-            fs[2 * p + 1] -= s * cweights[p] * t[1];
-        }
         let frames = Frames::new(&dir, &con, &tangential);
-        let (kr, br, bounded) = frames.reduce(&k, &fs);
-        // Each sign update starts from the last active set (the same variables): most of the
-        // normal contact constraints do not change between the updates.
-        let (y, i) = solve_bound_qp_from(
-            &kr,
-            &br,
-            &bounded,
-            super::stress::MAX_ITERATIONS,
-            &last_active,
-        )?;
-        last_active = bounded.iter().copied().filter(|&i| y[i] == 0.0).collect();
+        let (kr, br, bounded) = frames.reduce(&k, &f, &cweights, delta);
+        if iterations == 1 {
+            // Stick: both split variables at their bound.
+            guess = (0..np)
+                .filter(|&p| frames.extra[p] != usize::MAX)
+                .flat_map(|p| [2 * p + 1, frames.extra[p]])
+                .collect();
+        }
+        let (mut y, mut i) =
+            solve_bound_qp_from(&kr, &br, &bounded, super::stress::MAX_ITERATIONS, &guess)?;
+        // The regularisation shifts the slipping nodes by O(delta): solve once more without
+        // it from the final active set (at most one split variable per node is free there, so
+        // the matrix is definite); keep the regularised solution if that fails.
+        if frames.extra.iter().any(|&e| e != usize::MAX) {
+            let active: Vec<usize> = bounded.iter().copied().filter(|&q| y[q] == 0.0).collect();
+            let (k0, b0, _) = frames.reduce(&k, &f, &cweights, 0.0);
+            if let Ok((y0, i0)) =
+                solve_bound_qp_from(&k0, &b0, &bounded, super::stress::MAX_ITERATIONS, &active)
+                && i0.converged
+                && y0.iter().all(|x| x.is_finite())
+            {
+                qp_iterations += i.iterations;
+                (y, i) = (y0, i0);
+            }
+        }
         v = frames.expand(&y);
         qp_iterations += i.iterations;
         info = SolveInfo {
             iterations: qp_iterations,
             ..i
         };
+        // The same variables keep their numbers (2p, 2p + 1) when a node is remedied: the
+        // next solve starts from this active set.
+        guess = bounded
+            .iter()
+            .copied()
+            .filter(|&q| y[q] == 0.0 && q < 2 * np)
+            .collect();
         if !frictional.iter().any(|&x| x) {
             converged = true;
             break;
         }
-        // Tangential residual r_p = t·(f − Kv) without the |v_t| term.
-        let flat: Vec<f64> = v.iter().flatten().copied().collect();
-        let kv = k.apply(&flat);
-        let mut next = tangential.clone();
-        let mut excess = vec![0.0; np];
-        for p in (0..np).filter(|&p| frictional[p]) {
+        let tiny = 1e-12 * vscale(&v).max(f64::MIN_POSITIVE);
+        let vt = |p: usize| -> f64 {
             let (n, _) = con[p].expect("frictional nodes are contact nodes");
-            let t = [-n[1], n[0]];
-            let r = t[0] * (f[2 * p] - kv[2 * p]) + t[1] * (f[2 * p + 1] - kv[2 * p + 1]);
-            let vt = t[0] * v[p][0] + t[1] * v[p][1];
-            let tol = 1e-10 * cweights[p] + 1e-14 * scale;
-            excess[p] = r.abs() - cweights[p];
-            next[p] = match tangential[p] {
-                _ if frozen[p] => Tangential::Zero,
-                // A slipping node keeps its sign while v_t is away from 0.
-                Tangential::NonNegative if vt > 0.0 => Tangential::NonNegative,
-                Tangential::NonPositive if vt < 0.0 => Tangential::NonPositive,
-                _ if excess[p] > tol => {
-                    if r > 0.0 {
-                        Tangential::NonNegative
-                    } else {
-                        Tangential::NonPositive
-                    }
-                }
-                _ => Tangential::Zero,
-            };
-        }
-        remedied = remedy(inp, &mut next, &excess);
-        // The sign iteration can cycle (two nodes of one edge taking turns at v_t = 0, or
-        // distant nodes coupled through the elasticity): on a repeat of an earlier state, the
-        // nodes that change along the cycle are held at v_t = 0 (the remedy) for good, which
-        // ends the iteration after at most as many cycles as there are frictional nodes.
-        if next != tangential
-            && let Some(j) = history.iter().position(|h| *h == next)
-        {
-            for p in 0..np {
-                if history[j..].iter().any(|h| h[p] != next[p]) {
-                    next[p] = Tangential::Zero;
-                    frozen[p] = true;
-                }
-            }
-        }
-        if next == tangential {
+            -n[1] * v[p][0] + n[0] * v[p][1]
+        };
+        let changed = remedy(inp, &mut tangential, &|p| vt(p), tiny);
+        remedied += changed;
+        if changed == 0 {
             converged = true;
             break;
         }
-        history.push(std::mem::replace(&mut tangential, next));
         if iterations >= MAX_FRICTION_ITERATIONS {
             break;
         }
     }
     let (mut stick, mut slip) = (0, 0);
+    let tiny = 1e-12 * vscale(&v).max(f64::MIN_POSITIVE);
     for p in (0..np).filter(|&p| frictional[p]) {
-        if tangential[p] == Tangential::Zero {
+        let (n, _) = con[p].expect("frictional nodes are contact nodes");
+        if (-n[1] * v[p][0] + n[0] * v[p][1]).abs() <= tiny {
             stick += 1;
         } else {
             slip += 1;
@@ -630,13 +631,19 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
         friction_converged: converged,
         stick,
         slip,
-        remedied: remedied + frozen.iter().filter(|&&f| f).count(),
+        remedied,
     })
 }
 
-/// The talk's remedy: on a frictional contact edge whose nodes ask for both signs of v_t, the
-/// nodes of the weaker sign (smaller excess |r_p| − c_p) are set to v_t = 0. Returns how many.
-fn remedy(inp: &ReconstructInput, state: &mut [Tangential], excess: &[f64]) -> usize {
+/// The talk's remedy: on a frictional contact edge whose nodes carry both signs of v_t (beyond
+/// `tiny`), the node with the smaller |v_t| among the minority sign is held at v_t = 0.
+/// Returns how many nodes changed.
+fn remedy(
+    inp: &ReconstructInput,
+    state: &mut [Tangential],
+    vt: &dyn Fn(usize) -> f64,
+    tiny: f64,
+) -> usize {
     let mut count = 0;
     for be in inp.edges {
         if !matches!(be.condition, Condition::Contact(_)) {
@@ -646,33 +653,22 @@ fn remedy(inp: &ReconstructInput, state: &mut [Tangential], excess: &[f64]) -> u
         let mid = inp.topo.edge_mid[be.edge as usize];
         let nodes: Vec<usize> = [a, b, mid]
             .into_iter()
-            .filter(|&p| p != NONE)
+            .filter(|&p| p != NONE && state[p as usize] == Tangential::Split)
             .map(|p| p as usize)
             .collect();
-        let strongest = |s: Tangential| {
-            nodes
-                .iter()
-                .filter(|&&p| state[p] == s)
-                .map(|&p| excess[p])
-                .fold(f64::NEG_INFINITY, f64::max)
-        };
-        let (pos, neg) = (
-            strongest(Tangential::NonNegative),
-            strongest(Tangential::NonPositive),
-        );
-        if pos.is_finite() && neg.is_finite() {
-            let weaker = if pos < neg {
-                Tangential::NonNegative
-            } else {
-                Tangential::NonPositive
-            };
-            for &p in &nodes {
-                if state[p] == weaker {
-                    state[p] = Tangential::Zero;
-                    count += 1;
-                }
-            }
+        let pos: Vec<usize> = nodes.iter().copied().filter(|&p| vt(p) > tiny).collect();
+        let neg: Vec<usize> = nodes.iter().copied().filter(|&p| vt(p) < -tiny).collect();
+        if pos.is_empty() || neg.is_empty() {
+            continue;
         }
+        let weakest = pos
+            .iter()
+            .chain(&neg)
+            .copied()
+            .min_by(|&p, &q| vt(p).abs().total_cmp(&vt(q).abs()))
+            .expect("both signs present");
+        state[weakest] = Tangential::Zero;
+        count += 1;
     }
     count
 }
