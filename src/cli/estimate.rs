@@ -43,6 +43,7 @@ fn find_scene(file: &Path, given: Option<&Path>) -> Result<PathBuf, Error> {
 
 /// A spinner on stderr for one stage, hidden when stderr is not a terminal or with --quiet.
 fn stage(quiet: bool, what: &str) -> indicatif::ProgressBar {
+    fosls::limits::set_stage(what);
     if quiet || !std::io::stderr().is_terminal() {
         return indicatif::ProgressBar::hidden();
     }
