@@ -378,6 +378,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
              constraints, {} iterations, KKT residual {:.2e}; ‖ũ_h − u_h‖_E = {:.6e}",
             p.violations, p.info.active, p.info.iterations, p.info.kkt_residual, p.distance
         ));
+        notes.extend(reconstruct::condition::warning(
+            &p.info,
+            "displacement projection",
+        ));
         if let Some((pen, dir)) = projected_findings {
             notes.push(format!(
                 "after the projection: penetration max {pen:.3e} (between nodes: the \
@@ -400,6 +404,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             },
             r.info.active,
             r.info.kkt_residual
+        ));
+        notes.extend(reconstruct::condition::warning(
+            &r.info,
+            "stress reconstruction",
         ));
     }
     let run = report::Run {
