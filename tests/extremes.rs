@@ -712,3 +712,35 @@ fn reconstruction_on_a_few_extremes() {
 fn reconstruction_on_the_whole_matrix() {
     reconstruction_matrix(&matrix());
 }
+
+/// The conditioning warning of the aspect-1e3 sliver (κ ≈ 5e8 > 1e8) is a line of the text
+/// report too, not only of the JSON notes; the well-shaped mesh (κ below 1e8) has none.
+#[test]
+fn conditioning_warning_reaches_the_text_report() {
+    for (aspect, warned) in [(1e3, true), (1.0, false)] {
+        let dir = tempfile::tempdir().unwrap();
+        let c = Case {
+            aspect,
+            ..Case::default()
+        };
+        let vtu = write_case(dir.path(), &c);
+        let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
+            .arg("estimate")
+            .arg(&vtu)
+            .args(["--stress", "reconstruct"])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0));
+        let text = String::from_utf8(out.stdout).unwrap();
+        let line = text
+            .lines()
+            .find(|l| l.contains("warning: stress reconstruction: condition estimate"));
+        assert_eq!(line.is_some(), warned, "aspect {aspect:e}:\n{text}");
+        if let Some(l) = line {
+            assert!(
+                l.contains("> 1e8; the reconstructed field (and F) may have lost"),
+                "{l}"
+            );
+        }
+    }
+}
