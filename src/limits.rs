@@ -21,9 +21,13 @@
 //! an output file is either complete or absent, never cut short, and no temporary file is left
 //! behind.
 
+use std::io::Read;
+use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
+
+use crate::error::Error;
 
 /// The default global cap on declared data held in memory: 16 GiB (two thirds of the 24 GiB
 /// the project's machines have).
@@ -103,6 +107,37 @@ impl Budget {
     pub fn cap(&self) -> u64 {
         self.cap
     }
+}
+
+/// The largest scene file read (a scene is a few kilobytes of TOML).
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
+/// Reads the file at `path`, refusing one longer than `cap` bytes without reading past the
+/// cap (a device such as `/dev/zero` or a growing file cannot exhaust memory).
+pub fn read_bounded(path: &Path, cap: u64) -> crate::Result<Vec<u8>> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let hint = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let too_long = |n: u64| {
+        Error::input(
+            path,
+            "file",
+            format!(
+                "is {n} bytes or more, past the limit of {cap} bytes (set FOSLS_MAX_ALLOC to \
+                 raise it)"
+            ),
+        )
+    };
+    if hint > cap {
+        return Err(too_long(hint));
+    }
+    let mut bytes = Vec::with_capacity(hint as usize);
+    file.take(cap.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    if bytes.len() as u64 > cap {
+        return Err(too_long(bytes.len() as u64));
+    }
+    Ok(bytes)
 }
 
 static STAGE: Mutex<String> = Mutex::new(String::new());

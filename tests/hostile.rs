@@ -92,25 +92,41 @@ fn bad_timeout_values_are_usage_errors() {
     }
 }
 
-/// `FOSLS_MAX_ALLOC` caps the decoded data: the 2-component Float64 points of this fixture
-/// alone need 8 bytes per value, more than a 1 KiB cap.
+/// `FOSLS_MAX_ALLOC` caps the decoded data. With the cap at the file's own length the file is
+/// read, but its arrays need more: every value is held in 8 bytes, and the 54 cell types take 1
+/// byte each in the file (zlib-compressed at that). One byte less and the file itself is refused.
 #[test]
 fn the_memory_cap_refuses_a_file_that_needs_more() {
     let dir = tempfile::tempdir().unwrap();
     let file = fixture("exact_p2_energy");
-    let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
-        .arg("convert")
-        .arg(&file)
-        .arg(dir.path().join("c.vtu"))
-        .env("FOSLS_MAX_ALLOC", "1K")
-        .output()
-        .unwrap();
-    let line = refused(&out, dir.path());
+    let len = std::fs::metadata(&file).unwrap().len();
+    let convert = |cap: u64| {
+        Command::new(env!("CARGO_BIN_EXE_fosls"))
+            .arg("convert")
+            .arg(&file)
+            .arg(dir.path().join("c.vtu"))
+            .env("FOSLS_MAX_ALLOC", cap.to_string())
+            .output()
+            .unwrap()
+    };
     let prefix = format!("error: {}: ", file.display());
+    let line = refused(&convert(len), dir.path());
     assert!(line.starts_with(&prefix), "{line}");
     assert!(
-        line.contains("past the limit of 1024 bytes (set FOSLS_MAX_ALLOC to raise it)"),
+        line.ends_with(&format!(
+            "past the limit of {len} bytes (set FOSLS_MAX_ALLOC to raise it)"
+        )),
         "{line}"
+    );
+    assert!(line.contains(" needs "), "{line}");
+    let line = refused(&convert(len - 1), dir.path());
+    assert_eq!(
+        line,
+        format!(
+            "{prefix}file: is {len} bytes or more, past the limit of {} bytes (set \
+             FOSLS_MAX_ALLOC to raise it)",
+            len - 1
+        )
     );
     // The same file converts under the default cap.
     let ok = Command::new(env!("CARGO_BIN_EXE_fosls"))
@@ -120,4 +136,20 @@ fn the_memory_cap_refuses_a_file_that_needs_more() {
         .output()
         .unwrap();
     assert_eq!(ok.status.code(), Some(0));
+}
+
+/// A device that never ends is refused at the cap instead of being read forever.
+#[test]
+fn an_endless_input_stops_at_the_cap() {
+    let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
+        .args(["inspect", "/dev/zero", "--quiet"])
+        .env("FOSLS_MAX_ALLOC", "1M")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8(out.stderr).unwrap(),
+        "error: /dev/zero: file: is 1048577 bytes or more, past the limit of 1048576 bytes (set \
+         FOSLS_MAX_ALLOC to raise it)\n"
+    );
 }

@@ -154,7 +154,7 @@ impl VtuFile {
 
 /// Reads and decodes a VTU file.
 pub fn read_vtu(path: &Path) -> Result<VtuFile> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_bounded(path, crate::limits::max_alloc())?;
     parse_vtu(path, &bytes)
 }
 

@@ -11,15 +11,19 @@
 //! ```
 //!
 //! λ_max is estimated by power iteration with K, λ_min by inverse iteration with the Cholesky
-//! factor already computed (one pair of triangular solves per step), [`ITERATIONS`] steps each
-//! from a fixed start vector. Both converge from below/above respectively, so the estimate is a
+//! factor already computed (one pair of triangular solves per step), at most [`ITERATIONS`]
+//! steps each from a fixed start vector, stopping once the estimate settles ([`SETTLED`]). Both converge from below/above respectively, so the estimate is a
 //! lower bound of κ(S) that is typically within a small factor of it. A result has lost more
 //! than half of its 16 digits when κ(S) > 1e8 ([`WARN_ABOVE`]).
 
 use super::solve::SolveInfo;
 
-/// Steps of power and of inverse iteration.
+/// Most steps of power and of inverse iteration; each stops earlier once its eigenvalue
+/// estimate changes by less than [`SETTLED`] relative in one step.
 pub const ITERATIONS: usize = 30;
+
+/// Relative change of an eigenvalue estimate under which its iteration stops.
+pub const SETTLED: f64 = 1e-3;
 
 /// κ(S) above which the report warns: half of double precision's digits may be lost.
 pub const WARN_ABOVE: f64 = 1e8;
@@ -58,27 +62,35 @@ pub fn estimate(
     // Power iteration with S v = D^{-1/2} K D^{-1/2} v.
     let mut v = start.clone();
     normalise(&mut v);
-    let mut lambda_max = 0.0;
+    let mut lambda_max: f64 = 0.0;
     for _ in 0..ITERATIONS {
         let x: Vec<f64> = v.iter().zip(&root).map(|(a, r)| a / r).collect();
         let y = apply(&x);
         let mut w: Vec<f64> = y.iter().zip(&root).map(|(a, r)| a / r).collect();
+        let previous = lambda_max;
         lambda_max = normalise(&mut w);
         v = w;
+        if (lambda_max - previous).abs() <= SETTLED * lambda_max {
+            break;
+        }
     }
 
     // Inverse iteration with S⁻¹ v = D^{1/2} K⁻¹ D^{1/2} v.
     let mut v = start;
     normalise(&mut v);
-    let mut inverse_max = 0.0;
+    let mut inverse_max: f64 = 0.0;
     for _ in 0..ITERATIONS {
         let b: Vec<f64> = v.iter().zip(&root).map(|(a, r)| a * r).collect();
         let Some(x) = solve(&b) else {
             return f64::INFINITY;
         };
         let mut w: Vec<f64> = x.iter().zip(&root).map(|(a, r)| a * r).collect();
+        let previous = inverse_max;
         inverse_max = normalise(&mut w);
         v = w;
+        if (inverse_max - previous).abs() <= SETTLED * inverse_max {
+            break;
+        }
     }
     if !(inverse_max > 0.0 && inverse_max.is_finite()) {
         return f64::INFINITY;
