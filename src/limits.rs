@@ -113,18 +113,16 @@ impl Budget {
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
 /// Reads the file at `path`, refusing one longer than `cap` bytes without reading past the
-/// cap (a device such as `/dev/zero` or a growing file cannot exhaust memory).
-pub fn read_bounded(path: &Path, cap: u64) -> crate::Result<Vec<u8>> {
+/// cap (a device such as `/dev/zero` or a growing file cannot exhaust memory). `remedy` ends
+/// the message, e.g. "set FOSLS_MAX_ALLOC to raise it".
+pub fn read_bounded(path: &Path, cap: u64, remedy: &str) -> crate::Result<Vec<u8>> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let hint = file.metadata().map(|m| m.len()).unwrap_or(0);
     let too_long = |n: u64| {
         Error::input(
             path,
             "file",
-            format!(
-                "is {n} bytes or more, past the limit of {cap} bytes (set FOSLS_MAX_ALLOC to \
-                 raise it)"
-            ),
+            format!("is {n} bytes or more, past the limit of {cap} bytes ({remedy})"),
         )
     };
     if hint > cap {

@@ -153,3 +153,30 @@ fn an_endless_input_stops_at_the_cap() {
          FOSLS_MAX_ALLOC to raise it)\n"
     );
 }
+
+/// A scene file is read up to 16 MiB (`limits::MAX_SCENE_BYTES`) and refused beyond.
+#[test]
+fn an_oversized_scene_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let cap = fosls::limits::MAX_SCENE_BYTES;
+    std::fs::write(&scene, vec![b' '; cap as usize + 1]).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
+        .arg("estimate")
+        .arg(fixture("exact_p2_energy"))
+        .arg("--scene")
+        .arg(&scene)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8(out.stderr).unwrap(),
+        format!(
+            "error: {}: file: is {} bytes or more, past the limit of {cap} bytes (a scene file \
+             is TOML of a few kilobytes)\n",
+            scene.display(),
+            cap + 1
+        )
+    );
+}

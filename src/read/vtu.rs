@@ -154,7 +154,11 @@ impl VtuFile {
 
 /// Reads and decodes a VTU file.
 pub fn read_vtu(path: &Path) -> Result<VtuFile> {
-    let bytes = crate::limits::read_bounded(path, crate::limits::max_alloc())?;
+    let bytes = crate::limits::read_bounded(
+        path,
+        crate::limits::max_alloc(),
+        "set FOSLS_MAX_ALLOC to raise it",
+    )?;
     parse_vtu(path, &bytes)
 }
 

@@ -20,10 +20,11 @@ use super::solve::SolveInfo;
 
 /// Most steps of power and of inverse iteration; each stops earlier once its eigenvalue
 /// estimate changes by less than [`SETTLED`] relative in one step.
-pub const ITERATIONS: usize = 30;
+pub const ITERATIONS: usize = 20;
 
-/// Relative change of an eigenvalue estimate under which its iteration stops.
-pub const SETTLED: f64 = 1e-3;
+/// Relative change of an eigenvalue estimate under which its iteration stops: the warning needs
+/// the order of magnitude, and each inverse step costs a pair of triangular solves.
+pub const SETTLED: f64 = 1e-2;
 
 /// κ(S) above which the report warns: half of double precision's digits may be lost.
 pub const WARN_ABOVE: f64 = 1e8;
@@ -154,10 +155,10 @@ mod tests {
         let t = (std::f64::consts::PI / (n as f64 + 1.0)).cos();
         let want = (1.0 + t) / (1.0 - t);
         let kappa = estimate(apply, solve, &[2.0; 20]);
-        // Power iteration from a smooth start converges slowly for the top of the spectrum:
-        // the estimate is a lower bound within a few per cent.
+        // Power iteration from a smooth start converges slowly for the top of the spectrum and
+        // stops once settled to 1 %: the estimate is a lower bound, here within 30 %.
         assert!(
-            kappa <= want * (1.0 + 1e-9) && kappa > 0.9 * want,
+            kappa <= want * (1.0 + 1e-9) && kappa > 0.7 * want,
             "{kappa} vs {want}"
         );
     }

@@ -209,22 +209,24 @@ pub fn solve_bound_qp(
 /// numeric factor for the inverse iteration.
 fn last_system_condition(llt: &Llt<usize, f64>, k: &Lower, values: &[f64]) -> f64 {
     let n = k.n;
-    let last = Lower {
-        n,
-        entries: k
-            .entries
-            .iter()
-            .zip(values)
-            .map(|(&(i, j, _), &v)| (i, j, v))
-            .collect(),
+    // y = K x with the last system's values, without copying the triplets.
+    let apply = |x: &[f64]| {
+        let mut y = vec![0.0; n];
+        for (&(i, j, _), &v) in k.entries.iter().zip(values) {
+            y[i] += v * x[j];
+            if i != j {
+                y[j] += v * x[i];
+            }
+        }
+        y
     };
     let mut diag = vec![0.0; n];
-    for &(i, j, v) in &last.entries {
+    for (&(i, j, _), &v) in k.entries.iter().zip(values) {
         if i == j {
             diag[i] += v;
         }
     }
-    super::condition::estimate(|x| last.apply(x), |b| Some(solve_with(llt, b)), &diag)
+    super::condition::estimate(apply, |b| Some(solve_with(llt, b)), &diag)
 }
 
 #[cfg(test)]
