@@ -117,7 +117,7 @@ fn main() {
                     let est = estimate::run(&estimate::Input {
                         mesh: &data.mesh,
                         scene: &scene,
-                        u: &fields.displacement,
+                        u: fields.displacement.as_deref().expect("a displacement"),
                         sigma: estimate::StressField::Nodal(values),
                         edges: &bounds.edges,
                         norm: scene.effective_norm(),

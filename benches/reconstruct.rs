@@ -282,7 +282,7 @@ fn child(spec: &str) {
             mesh: &data.mesh,
             topo: &topo,
             scene: &scene,
-            u: &fields.displacement,
+            u: fields.displacement.as_deref().expect("a displacement"),
             edges: &bounds.edges,
             norm: Norm::Energy,
             length_scale,
@@ -299,7 +299,7 @@ fn child(spec: &str) {
     let est = estimate::run(&estimate::Input {
         mesh: &data.mesh,
         scene: &scene,
-        u: &fields.displacement,
+        u: fields.displacement.as_deref().expect("a displacement"),
         sigma: StressField::Rt(&r.stress),
         edges: &bounds.edges,
         norm: Norm::Energy,

@@ -42,10 +42,11 @@ pub const EQUAL_COMPONENTS: f64 = 1e-12;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fields {
     /// u_h at each mesh point (P1 or P2 nodes, [`crate::mesh::Mesh::points`] order); a z
-    /// component in the file is dropped.
-    pub displacement: Vec<[f64; 2]>,
+    /// component in the file is dropped. `None` when the file holds none but a nodal stress
+    /// (a pure stress method): the displacement is then reconstructed (DESIGN.md §4, §5).
+    pub displacement: Option<Vec<[f64; 2]>>,
     /// The point array it was read from.
-    pub displacement_name: String,
+    pub displacement_name: Option<String>,
     pub stress: Stress,
     /// Findings for the report (dropped components, asymmetry, how the layout was chosen).
     pub notes: Vec<String>,
@@ -101,8 +102,9 @@ impl fmt::Display for Place<'_> {
 
 /// Selects and converts the displacement and the stress of the solution file.
 ///
-/// **Displacement** (required): the point array `[fields] displacement`, else the one point
-/// array named like [`DISPLACEMENT_NAMES`] with 2 or 3 components. A third (z) component is
+/// **Displacement** (required unless the stress is nodal): the point array
+/// `[fields] displacement`, else the one point array named like [`DISPLACEMENT_NAMES`] with 2
+/// or 3 components; none found and a nodal stress present gives `None`. A third (z) component is
 /// dropped, with a note giving max |u_z| when it is not zero everywhere: fosls audits the
 /// plane problem (DESIGN.md §2).
 ///
@@ -131,6 +133,19 @@ impl fmt::Display for Place<'_> {
 pub fn select_fields(data: &Dataset, scene: &Scene) -> Result<Fields> {
     let mut notes = Vec::new();
     let array = displacement_array(data, scene)?;
+    let stress = select_stress(data, scene, &mut notes)?;
+    let Some(array) = array else {
+        // A pure stress method's output: the displacement is rebuilt from the stress.
+        if matches!(stress, Stress::Nodal { .. }) {
+            return Ok(Fields {
+                displacement: None,
+                displacement_name: None,
+                stress,
+                notes,
+            });
+        }
+        return Err(no_displacement(data, scene));
+    };
     check_finite(data, array, Kind::Point)?;
     let c = array.components;
     let displacement: Vec<[f64; 2]> = array.values.chunks_exact(c).map(|v| [v[0], v[1]]).collect();
@@ -148,17 +163,30 @@ pub fn select_fields(data: &Dataset, scene: &Scene) -> Result<Fields> {
             ));
         }
     }
-    let stress = select_stress(data, scene, &mut notes)?;
     Ok(Fields {
-        displacement,
-        displacement_name: array.name.clone(),
+        displacement: Some(displacement),
+        displacement_name: Some(array.name.clone()),
         stress,
         notes,
     })
 }
 
+/// The error for a file without a displacement and without a nodal stress to rebuild it from.
+fn no_displacement(data: &Dataset, scene: &Scene) -> Error {
+    Error::input(
+        &data.path,
+        "PointData",
+        format!(
+            "no displacement found (a point array named displacement, displacements, disp or u \
+             with 2 or 3 components; point arrays: {}); set [fields] displacement = \"…\" in {}",
+            list_arrays(&data.point_data),
+            scene.file.display()
+        ),
+    )
+}
+
 /// The displacement's point array: named in the scene, or the one auto-detected candidate.
-fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<&'a DataArray> {
+fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<Option<&'a DataArray>> {
     let scene_file = scene.file.display();
     let file = data.path.display();
     if let Some(name) = &scene.fields.displacement {
@@ -190,7 +218,7 @@ fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<&'a DataAr
                 ),
             ));
         }
-        return Ok(a);
+        return Ok(Some(a));
     }
     let candidates: Vec<&DataArray> = data
         .point_data
@@ -198,17 +226,8 @@ fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<&'a DataAr
         .filter(|a| named_like(a, &DISPLACEMENT_NAMES) && (a.components == 2 || a.components == 3))
         .collect();
     match candidates[..] {
-        [a] => Ok(a),
-        [] => Err(Error::input(
-            &data.path,
-            "PointData",
-            format!(
-                "no displacement found (a point array named displacement, displacements, disp \
-                 or u with 2 or 3 components; point arrays: {}); set [fields] displacement = \
-                 \"…\" in {scene_file}",
-                list_arrays(&data.point_data)
-            ),
-        )),
+        [a] => Ok(Some(a)),
+        [] => Ok(None),
         _ => Err(Error::input(
             &data.path,
             "PointData",
@@ -1070,9 +1089,9 @@ mod tests {
         let values: Vec<f64> = (0..9).flat_map(|k| [k as f64, -(k as f64), 0.0]).collect();
         f.point_data.push(array("Displacement", 3, values));
         let r = fields(f, "").unwrap();
-        assert_eq!(r.displacement_name, "Displacement");
-        assert_eq!(r.displacement.len(), 9);
-        assert_eq!(r.displacement[4], [4.0, -4.0]);
+        assert_eq!(r.displacement_name.as_deref(), Some("Displacement"));
+        assert_eq!(r.displacement.as_ref().unwrap().len(), 9);
+        assert_eq!(r.displacement.as_ref().unwrap()[4], [4.0, -4.0]);
         assert_eq!(r.stress, Stress::Absent);
         assert!(r.notes.is_empty(), "{:?}", r.notes);
     }
@@ -1086,7 +1105,7 @@ mod tests {
             "",
         )
         .unwrap();
-        assert_eq!(r.displacement, vec![[1.0, 2.0]; 9]);
+        assert_eq!(r.displacement, Some(vec![[1.0, 2.0]; 9]));
         assert_eq!(
             r.notes,
             vec![
@@ -1109,8 +1128,8 @@ mod tests {
     fn displacement_named_in_the_scene_wins() {
         let f = with_points(vec![uniform("w", &[3.0, 4.0])]);
         let r = fields(f, "[fields]\ndisplacement = \"w\"\n").unwrap();
-        assert_eq!(r.displacement_name, "w");
-        assert_eq!(r.displacement[0], [3.0, 4.0]);
+        assert_eq!(r.displacement_name.as_deref(), Some("w"));
+        assert_eq!(r.displacement.as_ref().unwrap()[0], [3.0, 4.0]);
     }
 
     #[test]
@@ -1151,6 +1170,15 @@ mod tests {
              displacements, disp or u with 2 or 3 components; point arrays: none); set [fields] \
              displacement = \"…\" in scene.toml"
         );
+        // A nodal stress and no displacement (a pure stress method): the displacement is left
+        // to the reconstruction; a cell stress cannot stand in (the error above).
+        let mut stress_only = square();
+        stress_only
+            .point_data
+            .push(uniform("stress", &[1.0, 2.0, 3.0]));
+        let r = fields(stress_only, "").unwrap();
+        assert!(r.displacement.is_none() && r.displacement_name.is_none());
+        assert!(matches!(r.stress, Stress::Nodal { .. }));
         let several = with_points(vec![uniform("DISP", &[0.0, 0.0, 0.0])]);
         assert_eq!(
             message(fields(several, "")),

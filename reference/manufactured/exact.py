@@ -31,6 +31,21 @@ ALPHA, BETA = 0.002, 0.002
 CPSI = 0.5
 
 
+def configure(x0, x1, w_max=0.0005):
+    """Moves the end of the contact zone (x0) and of the stick zone (x1) and sets max |w| (the slip
+    profile); the other constants follow (p(0) = 10, extra gap 0.005 at x = 1).  x0 = 0.5 puts the
+    kink of f = -div sigma (from p'') onto a mesh line of every n x n mesh with n even, and w_max = 0
+    (frictionless only) removes the degree-8 slip profile, whose high derivatives keep coarse meshes
+    pre-asymptotic: u, sigma and f are then smooth on every cell and the P2/RT_1 pair converges at the
+    optimal rate h^2 from n = 4 on (with x0 = 0.6 the kinks cut through cells and limit the
+    equilibrium term to h^1.5)."""
+    global X0, X1, P0, W0, S0
+    X0, X1 = float(x0), float(x1)
+    P0 = 10.0 / X0 ** 3
+    W0 = float(w_max) / ((X2 - X1) / 2) ** 8
+    S0 = 0.005 / (1 - X0) ** 2
+
+
 def r(v):
     return repr(float(v))
 

@@ -42,6 +42,12 @@ def case_name(fr, deg, n):
 
 
 CASES = {case_name(fr, deg, n): dict(friction=fr, degree=deg, n=n) for fr in (0.0, 0.4) for deg in (1, 2) for n in LEVELS}
+# The frictionless problem with its kink on mesh lines and without the slip profile w (x0 = 0.5,
+# w = 0, exact.configure): smooth on every cell, for the optimal-rate test of the reconstruction
+# (tests/reconstruct_cli.rs).
+ALIGNED = (0.5, 0.25, 0.0)
+CASES.update({f"manufactured_aligned_p{deg}_n{n:02d}": dict(friction=0.0, degree=deg, n=n, aligned=True)
+              for deg in (1, 2) for n in LEVELS})
 
 
 def square_mesh(n):
@@ -181,6 +187,7 @@ def errors(path, scene_, ex):
 
 def make_one(name, outdir, results, levels_ok=True):
     c = CASES[name] if name in CASES else dict(zip(("friction", "degree", "n"), name))
+    EX.configure(*(ALIGNED if c.get("aligned") else (0.6, 0.3, 0.0005)))
     ex = EX.Exact(c["friction"])
     tm = square_mesh(c["n"])
     d, U, S4, info = solve(ex, tm, c["degree"])
@@ -224,8 +231,8 @@ def readme(name, c, exp):
 
 Manufactured smooth contact problem on the unit square (reference/manufactured/exact.py), E = 1000,
 nu = 0.3, plane strain, {'Coulomb friction ' + str(fr) if fr else 'frictionless'}. Gamma_C = bottom (normal = body, gap given as an
-expression): active for 0 <= x < 0.6 (pressure p = P0 (0.6 - x)^3), inactive for 0.6 < x <= 1""" + (
-        ", stick for x < 0.3, slip for 0.3 < x < 0.6" if fr else "") + f""".
+expression): active for 0 <= x < {EX.X0:g} (pressure p = P0 ({EX.X0:g} - x)^3), inactive for {EX.X0:g} < x <= 1""" + (
+        f", stick for x < {EX.X1:g}, slip for {EX.X1:g} < x < {EX.X0:g}" if fr else "") + f""".
 Top: Dirichlet (exact u); left/right: Neumann (exact traction); body force f = -div sigma; all data are
 expressions in scene.toml.  Mesh: {c['n']} x {c['n']} squares cut along the diagonal, P{c['degree']}.
 

@@ -70,7 +70,7 @@ fn add_reconstructed(
     file: &mut fosls::read::vtu::VtuFile,
     data: &mesh::Dataset,
     stress: Option<&reconstruct::stress::Reconstruction>,
-    projection: Option<&reconstruct::displacement::Projection>,
+    displacement: Option<(&str, &[[f64; 2]])>,
 ) {
     use fosls::read::{decode::Scalar, vtu::DataArray};
     let ncells = file.cell_count();
@@ -97,13 +97,13 @@ fn add_reconstructed(
             values,
         });
     }
-    if let Some(p) = projection {
+    if let Some((name, u)) = displacement {
         file.point_data.push(DataArray {
-            name: "displacement_projected".into(),
+            name: name.into(),
             scalar: Scalar::Float64,
             components: 2,
             component_names: vec!["x".into(), "y".into()],
-            values: p.displacement.iter().flatten().copied().collect(),
+            values: u.iter().flatten().copied().collect(),
         });
     }
 }
@@ -117,6 +117,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         if out != Path::new("-") {
             check_output(&args.file, out)?;
         }
+    }
+    if let Some(out) = &args.output {
+        check_output(&args.file, &report::vtu::discontinuous_path(out))?;
     }
     if let Some(theta) = args.mark {
         report::mark::check_theta(theta)?;
@@ -153,47 +156,99 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     let boundaries = problem::classify(&data, &topo, &scene)?;
     lap("scene and fields", &mut stages);
 
-    if args.displacement == Source::Reconstruct {
-        return Err(Error::Usage(
-            "--displacement reconstruct: displacement reconstruction is not available in this \
-             version"
-                .into(),
-        )
-        .into());
-    }
-    // An inadmissible displacement (penetration or wrong Dirichlet values at the nodes) is
-    // projected onto K_u in the energy norm (DESIGN.md §5) unless --displacement file.
     let length_scale = scene
         .estimate
         .length_scale
         .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
-    let violations = reconstruct::displacement::nodal_violations(
-        &data.mesh,
-        &topo,
-        &scene,
-        &boundaries.edges,
-        &fields.displacement,
-    );
-    let projection = if violations > 0 && args.displacement == Source::Auto {
-        let bar = stage(args.quiet, "projecting the displacement onto K_u");
-        let p = reconstruct::displacement::project(
+    // The displacement: the file's, projected onto K_u in the energy norm when it penetrates
+    // or misses the Dirichlet data at the nodes (DESIGN.md §5) unless --displacement file; or
+    // rebuilt from the file's nodal stress when the file holds none or it is asked for.
+    let file_u: Option<&[[f64; 2]]> = fields.displacement.as_deref();
+    let rebuild_reason = match (file_u, args.displacement) {
+        (None, Source::File) => {
+            return Err(Error::input(
+                &args.file,
+                "displacement",
+                "--displacement file: the file holds no displacement",
+            )
+            .into());
+        }
+        (None, _) => Some("the file holds no displacement".to_string()),
+        (Some(_), Source::Reconstruct) => {
+            Some("asked for with --displacement reconstruct".to_string())
+        }
+        (Some(_), _) => None,
+    };
+    let rebuilt = match &rebuild_reason {
+        None => None,
+        Some(_) => {
+            if args.stress == Source::Reconstruct {
+                return Err(Error::Usage(
+                    "--stress reconstruct: the displacement is reconstructed from the file's \
+                     stress, so the stress cannot be reconstructed too"
+                        .into(),
+                )
+                .into());
+            }
+            let Stress::Nodal { values, .. } = &fields.stress else {
+                return Err(Error::input(
+                    &args.file,
+                    "stress",
+                    "--displacement reconstruct: the displacement is rebuilt from the stress, \
+                     which must be a nodal (point-data) stress; this file has none",
+                )
+                .into());
+            };
+            let bar = stage(args.quiet, "reconstructing the displacement");
+            let r = reconstruct::displacement::reconstruct(
+                &reconstruct::displacement::ReconstructInput {
+                    mesh: &data.mesh,
+                    topo: &topo,
+                    scene: &scene,
+                    edges: &boundaries.edges,
+                    sigma: StressField::Nodal(values),
+                    norm,
+                },
+            )
+            .map_err(|problem| Error::input(&args.file, "displacement reconstruction", problem))?;
+            bar.finish_and_clear();
+            lap("reconstruct displacement", &mut stages);
+            Some(r)
+        }
+    };
+    let violations = file_u.map_or(0, |fu| {
+        reconstruct::displacement::nodal_violations(
             &data.mesh,
             &topo,
             &scene,
             &boundaries.edges,
-            &fields.displacement,
-            length_scale,
+            fu,
         )
-        .map_err(|problem| Error::input(&args.file, "displacement projection", problem))?;
-        bar.finish_and_clear();
-        lap("project displacement", &mut stages);
-        Some(p)
-    } else {
-        None
+    });
+    let projection = match file_u {
+        Some(fu) if rebuilt.is_none() && violations > 0 && args.displacement == Source::Auto => {
+            let bar = stage(args.quiet, "projecting the displacement onto K_u");
+            let p = reconstruct::displacement::project(
+                &data.mesh,
+                &topo,
+                &scene,
+                &boundaries.edges,
+                fu,
+                length_scale,
+            )
+            .map_err(|problem| Error::input(&args.file, "displacement projection", problem))?;
+            bar.finish_and_clear();
+            lap("project displacement", &mut stages);
+            Some(p)
+        }
+        _ => None,
     };
-    let u: &[[f64; 2]] = projection
-        .as_ref()
-        .map_or(&fields.displacement, |p| &p.displacement);
+    let u: &[[f64; 2]] = match (&rebuilt, &projection, file_u) {
+        (Some(r), _, _) => &r.displacement,
+        (None, Some(p), _) => &p.displacement,
+        (None, None, Some(fu)) => fu,
+        (None, None, None) => unreachable!("an absent displacement is reconstructed"),
+    };
 
     let degree = match args.degree {
         Some(k) if k <= 1 => k,
@@ -330,10 +385,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     // The findings on the displacement are the file's (what the user must hear about); F and
     // the rest use the projection.
     let mut projected_findings = None;
-    if projection.is_some() {
+    if let (Some(_), Some(fu)) = (&projection, file_u) {
         let file = estimate::boundary::boundary(&estimate::boundary::Input {
             mesh: &data.mesh,
-            u: &fields.displacement,
+            u: fu,
             sigma,
             scene: &scene,
             edges: &boundaries.edges,
@@ -368,7 +423,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     }
     let failed = estimate::failed_checks(
         &est.admissibility,
-        &fields.displacement,
+        file_u.unwrap_or(u),
         sigma.scale(&data.mesh),
         frictional,
     );
@@ -389,6 +444,33 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
                  admissibility table shows the file's displacement"
             ));
         }
+    }
+    if let Some(r) = &rebuilt {
+        notes.push(format!(
+            "displacement reconstruction: {} unknowns, {} active-set iterations, {} active \
+             contact constraints, KKT residual {:.2e}{}",
+            r.info.unknowns,
+            r.info.iterations,
+            r.info.active,
+            r.info.kkt_residual,
+            if r.stick + r.slip > 0 {
+                format!(
+                    "; friction: {} stick/slip updates{}, {} stick and {} slip nodes, {} set to \
+                     v_t = 0 by the remedy (sign change of v_t inside an edge)",
+                    r.friction_iterations,
+                    if r.friction_converged {
+                        ""
+                    } else {
+                        " (NOT settled: iteration cap)"
+                    },
+                    r.stick,
+                    r.slip,
+                    r.remedied
+                )
+            } else {
+                String::new()
+            }
+        ));
     }
     if let Some(r) = &reconstruction {
         notes.push(format!(
@@ -415,25 +497,33 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         scene: scene_path,
         version: env!("CARGO_PKG_VERSION"),
         displacement: report::FieldInfo {
-            source: if projection.is_some() {
+            source: if projection.is_some() || rebuilt.is_some() {
                 "reconstructed"
             } else {
                 "file"
             }
             .into(),
-            name: fields.displacement_name.clone(),
-            space: format!("P{} nodal", data.mesh.degree),
-            reason: match &projection {
-                Some(p) => format!(
+            name: fields.displacement_name.clone().unwrap_or_default(),
+            space: if rebuilt.is_some() {
+                format!(
+                    "P{} nodal (minimiser of F(·, σ_h) on K_u)",
+                    data.mesh.degree
+                )
+            } else {
+                format!("P{} nodal", data.mesh.degree)
+            },
+            reason: match (&rebuild_reason, &projection) {
+                (Some(why), _) => why.clone(),
+                (None, Some(p)) => format!(
                     "projected onto K_u in the energy norm: {} nodes penetrate the obstacle or \
                      miss the Dirichlet data",
                     p.violations
                 ),
-                None if violations > 0 => format!(
+                (None, None) if violations > 0 => format!(
                     "used as is (--displacement file) although {violations} nodes are \
                      inadmissible"
                 ),
-                None => "conforming and admissible at the nodes, used as is".into(),
+                (None, None) => "conforming and admissible at the nodes, used as is".into(),
             },
         },
         displacement_degree: data.mesh.degree,
@@ -464,13 +554,18 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     if let Some(out) = &args.output {
         let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
         let mut file = report::vtu::output_file(out, &data, &est, cells);
-        add_reconstructed(
-            &mut file,
-            &data,
-            reconstruction.as_ref(),
-            projection.as_ref(),
-        );
+        let displacement = match (&rebuilt, &projection) {
+            (Some(r), _) => Some(("displacement_reconstructed", r.displacement.as_slice())),
+            (None, Some(p)) => Some(("displacement_projected", p.displacement.as_slice())),
+            _ => None,
+        };
+        add_reconstructed(&mut file, &data, reconstruction.as_ref(), displacement);
         fosls::write::write_vtu(out, &file, fosls::write::Placement::AppendedRaw)?;
+        if reconstruction.is_some() || rebuilt.is_some() || projection.is_some() {
+            let copy = report::vtu::discontinuous_path(out);
+            let file = report::vtu::discontinuous_file(&copy, &data.mesh, sigma, u, &est);
+            fosls::write::write_vtu(&copy, &file, fosls::write::Placement::AppendedRaw)?;
+        }
     }
     if let Some(j) = &args.json {
         let r = report::json::report(&run, &est, &data.mesh);

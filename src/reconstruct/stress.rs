@@ -20,7 +20,7 @@
 //! cone |τ_t| ≤ 𝔉|τ_n| at each contact DOF point becomes two bounds after the change of
 //! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
 
-use super::solve::{Lower, SolveInfo, solve_bound_qp};
+use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
 use crate::element::edge::edge_reference_point;
 use crate::element::lagrange::{jacobian, shape_gradients, shape_values};
 use crate::element::map::Jacobian;
@@ -110,7 +110,7 @@ impl Dofs {
 }
 
 /// Position, outward normal and |x'(s)| at parameter s of local edge `l` of a cell.
-fn edge_point(
+pub(crate) fn edge_point(
     x: &[[f64; 2]; 6],
     n: usize,
     l: usize,
@@ -173,6 +173,16 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
     let mut frame: Vec<Option<Frame>> = vec![None; n];
     let mut fixed: Vec<Option<f64>> = vec![None; n];
     let mut constrained = Vec::new();
+    // Open-gap contact slots with the normal pressure of Cε(u_h) there.
+    let mut candidates: Vec<(f64, [usize; 2])> = Vec::new();
+    // An open gap, beyond round-off of the contact-normal displacement (as in the estimator's
+    // contact states, [`crate::estimate::boundary::GAP_TOLERANCE`]).
+    let gap_tolerance = crate::estimate::boundary::GAP_TOLERANCE
+        * inp
+            .u
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()))
+            .max(f64::MIN_POSITIVE);
     for (e, c) in condition.iter().enumerate() {
         let Some((cond, cell, local)) = *c else {
             continue;
@@ -211,6 +221,37 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                     let cn = spec.direction(normal);
                     let ct = [-cn[1], cn[0]];
                     let fr = spec.friction;
+                    // Where u_h leaves a gap and Cε(u_h) does not press on the boundary, the
+                    // contact stress vanishes at the minimiser in all but degenerate cases: the
+                    // active set starts there (only the iteration count depends on it).
+                    let (_, _, _, xi) = edge_point(&x, nn, l, s);
+                    let phi = shape_values(nn, xi);
+                    let jac = jacobian_at(&x, nn, xi);
+                    let gref = shape_gradients(nn, xi);
+                    let mut uh = [0.0; 2];
+                    let mut gu = [[0.0; 2]; 2];
+                    for (k, &q) in mesh.nodes(t).iter().enumerate() {
+                        let uq = inp.u[q as usize];
+                        let gk = jac.physical_gradient(gref[k]);
+                        for a in 0..2 {
+                            uh[a] += phi[k] * uq[a];
+                            gu[a][0] += uq[a] * gk[0];
+                            gu[a][1] += uq[a] * gk[1];
+                        }
+                    }
+                    let gap = spec.gap_at(p, cn) - (cn[0] * uh[0] + cn[1] * uh[1]);
+                    let pressure = if el.lambda.is_finite() {
+                        let sym = 0.5 * (gu[0][1] + gu[1][0]);
+                        let sg = el.stress([gu[0][0], sym, sym, gu[1][1]]);
+                        let tr = [
+                            sg[0] * normal[0] + sg[1] * normal[1],
+                            sg[2] * normal[0] + sg[3] * normal[1],
+                        ];
+                        -(cn[0] * tr[0] + cn[1] * tr[1])
+                    } else {
+                        0.0
+                    };
+
                     if fr >= super::condition::MIN_CONE_FRICTION {
                         // The 2D cone |y_t| ≤ −𝔉 y_n is w₁ = y_t + 𝔉y_n ≤ 0, w₂ = −y_t + 𝔉y_n ≤ 0:
                         // y_n = (w₁ + w₂)/(2𝔉), y_t = (w₁ − w₂)/2, bounds on single unknowns.
@@ -221,12 +262,18 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                         frame[g1] = Some((c1, c2, sgn));
                         constrained.push(g0);
                         constrained.push(g1);
+                        if gap > gap_tolerance {
+                            candidates.push((pressure, [g0, g1]));
+                        }
                     } else {
                         // Local (owner) flux of row r = n_r y_n + t_r y_t; global = sgn × local.
                         frame[g0] = Some((cn, ct, sgn));
                         frame[g1] = Some((cn, ct, sgn));
                         fixed[g1] = Some(0.0);
                         constrained.push(g0);
+                        if gap > gap_tolerance {
+                            candidates.push((pressure, [g0, usize::MAX]));
+                        }
                     }
                 }
                 Condition::Dirichlet(_) => {}
@@ -405,8 +452,18 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             b[g] = *v;
         }
     }
+    // Slots where Cε(u_h) presses with more than 20 % of the largest such pressure stay out of
+    // the guess: a field compressed where its gap is open is no solution of the contact problem
+    // (synthetic fields, gross errors), and its open gap says nothing about the stress there.
+    let pmax = candidates.iter().fold(0.0f64, |m, c| m.max(c.0.abs()));
+    let guess: Vec<usize> = candidates
+        .iter()
+        .filter(|c| c.0 <= 0.2 * pmax)
+        .flat_map(|c| c.1)
+        .filter(|&g| g != usize::MAX)
+        .collect();
     let k = Lower { n, entries };
-    let (x, info) = solve_bound_qp(&k, &b, &constrained, MAX_ITERATIONS)?;
+    let (x, info) = solve_bound_qp_from(&k, &b, &constrained, MAX_ITERATIONS, &guess)?;
 
     let coefficients = (0..ntri)
         .map(|t| {

@@ -181,6 +181,94 @@ pub fn output_file(
     file
 }
 
+/// The point-wise discontinuous copy of the fields the estimate used (written next to the
+/// `--output` file when a field was reconstructed): every triangle with its own copies of its
+/// nodes (an exploded mesh, as NGSolve's `VTKOutput` writes), so that a stress that jumps
+/// between cells (row-wise RT_k) is shown as it is, not averaged. Point data: `stress` (9
+/// components, row-major, σ_zz = 0 as used; σ evaluated in the cell at each of its nodes) and
+/// `displacement` (2 components). Cell data: `eta` as in [`output_file`].
+pub fn discontinuous_file(
+    path: &Path,
+    mesh: &crate::mesh::Mesh,
+    sigma: crate::estimate::StressField,
+    u: &[[f64; 2]],
+    est: &Estimate,
+) -> VtuFile {
+    use crate::element::lagrange::{P1_NODES, P2_NODES, jacobian, shape_gradients};
+    let nt = mesh.triangles.len();
+    let (tri_type, reference) = if mesh.degree == 2 {
+        (cell_type::QUADRATIC_TRIANGLE, &P2_NODES[..])
+    } else {
+        (cell_type::TRIANGLE, &P1_NODES[..])
+    };
+    let nn = reference.len();
+    let mut points = Vec::with_capacity(nt * nn);
+    let mut cells = Vec::with_capacity(nt);
+    let mut stress = Vec::with_capacity(nt * nn * 9);
+    let mut displacement = Vec::with_capacity(nt * nn * 2);
+    for t in 0..nt {
+        let nodes = mesh.nodes(t);
+        let x = mesh.coords(t);
+        cells.push((tri_type, ((t * nn) as u32..((t + 1) * nn) as u32).collect()));
+        for (k, &xi) in reference.iter().enumerate() {
+            let p = nodes[k] as usize;
+            points.push([x[k][0], x[k][1], 0.0]);
+            displacement.extend_from_slice(&u[p]);
+            let s = match sigma {
+                crate::estimate::StressField::Nodal(v) => v[p],
+                crate::estimate::StressField::Rt(rt) => {
+                    let jac = jacobian(&x, nn, &shape_gradients(nn, xi));
+                    rt.at(t, &jac, xi).0
+                }
+            };
+            stress.extend_from_slice(&[s[0], s[1], 0.0, s[2], s[3], 0.0, 0.0, 0.0, 0.0]);
+        }
+    }
+    let mut file = VtuFile::from_cells(path, points, &cells);
+    file.point_data = vec![
+        DataArray {
+            name: "stress".into(),
+            scalar: Scalar::Float64,
+            components: 9,
+            component_names: ["xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"]
+                .map(String::from)
+                .to_vec(),
+            values: stress,
+        },
+        DataArray {
+            name: "displacement".into(),
+            scalar: Scalar::Float64,
+            components: 2,
+            component_names: vec!["x".into(), "y".into()],
+            values: displacement,
+        },
+    ];
+    let c = &est.cells;
+    file.cell_data = vec![scalar_array(
+        "eta",
+        Scalar::Float64,
+        (0..nt)
+            .map(|t| {
+                if t < super::cell_count(c) {
+                    super::cell_eta(c, t)
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+    )];
+    file
+}
+
+/// The path of the discontinuous copy for `--output OUT`: `OUT` with `_discontinuous` added to
+/// its stem (`out.vtu` → `out_discontinuous.vtu`).
+pub fn discontinuous_path(output: &Path) -> std::path::PathBuf {
+    let stem = output
+        .file_stem()
+        .map_or_else(|| "output".into(), |s| s.to_string_lossy().into_owned());
+    output.with_file_name(format!("{stem}_discontinuous.vtu"))
+}
+
 /// Writes [`output_file`] to `path` atomically (appended raw, zlib), refusing to overwrite the
 /// input file.
 pub fn write(path: &Path, data: &Dataset, est: &Estimate, marked: Option<&[bool]>) -> Result<()> {
