@@ -471,6 +471,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
                 String::new()
             }
         ));
+        notes.extend(reconstruct::condition::warning(
+            &r.info,
+            "displacement reconstruction",
+        ));
     }
     if let Some(r) = &reconstruction {
         notes.push(format!(
