@@ -9,6 +9,7 @@ pub mod error;
 pub mod estimate;
 pub mod expr;
 pub mod inspect;
+pub mod limits;
 pub mod mesh;
 pub mod problem;
 pub mod quadrature;

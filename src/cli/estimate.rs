@@ -43,6 +43,7 @@ fn find_scene(file: &Path, given: Option<&Path>) -> Result<PathBuf, Error> {
 
 /// A spinner on stderr for one stage, hidden when stderr is not a terminal or with --quiet.
 fn stage(quiet: bool, what: &str) -> indicatif::ProgressBar {
+    fosls::limits::set_stage(what);
     if quiet || !std::io::stderr().is_terminal() {
         return indicatif::ProgressBar::hidden();
     }
@@ -432,6 +433,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
              constraints, {} iterations, KKT residual {:.2e}; ‖ũ_h − u_h‖_E = {:.6e}",
             p.violations, p.info.active, p.info.iterations, p.info.kkt_residual, p.distance
         ));
+        notes.extend(reconstruct::condition::warning(
+            &p.info,
+            "displacement projection",
+        ));
         if let Some((pen, dir)) = projected_findings {
             notes.push(format!(
                 "after the projection: penetration max {pen:.3e} (between nodes: the \
@@ -466,6 +471,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
                 String::new()
             }
         ));
+        notes.extend(reconstruct::condition::warning(
+            &r.info,
+            "displacement reconstruction",
+        ));
     }
     if let Some(r) = &reconstruction {
         notes.push(format!(
@@ -481,6 +490,10 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             },
             r.info.active,
             r.info.kkt_residual
+        ));
+        notes.extend(reconstruct::condition::warning(
+            &r.info,
+            "stress reconstruction",
         ));
     }
     let run = report::Run {

@@ -5,10 +5,11 @@ mod estimate;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Duration;
 
 use clap::{Parser, Subcommand};
 
-use fosls::{Error, inspect, mesh, read, topology, write};
+use fosls::{Error, inspect, limits, mesh, read, topology, write};
 
 /// Audit finite element solutions of elastic contact problems with the FOSLS functional.
 #[derive(Debug, Parser)]
@@ -30,6 +31,9 @@ pub enum Command {
         /// Print nothing on success except what --json asks for.
         #[arg(long)]
         quiet: bool,
+        /// Give up after this many seconds (exit status 2, no output file).
+        #[arg(long, value_name = "SECONDS", value_parser = limits::parse_timeout)]
+        timeout: Option<Duration>,
     },
     /// Evaluate the FOSLS functional of a solution: global estimate, indicators per cell,
     /// admissibility and the contact zone (DESIGN.md §3–§8).
@@ -43,6 +47,9 @@ pub enum Command {
         /// Put the data inline (base64) instead of in one appended raw section.
         #[arg(long)]
         inline: bool,
+        /// Give up after this many seconds (exit status 2, no output file).
+        #[arg(long, value_name = "SECONDS", value_parser = limits::parse_timeout)]
+        timeout: Option<Duration>,
     },
 }
 
@@ -102,20 +109,37 @@ pub struct EstimateArgs {
     /// Print nothing but errors (and what --json - asks for).
     #[arg(long)]
     pub quiet: bool,
+    /// Give up after this many seconds: exit status 2 with one line naming the stage that was
+    /// running; no output file is written.
+    #[arg(long, value_name = "SECONDS", value_parser = limits::parse_timeout)]
+    pub timeout: Option<Duration>,
 }
 
 /// Runs the command; `Ok(code)` for completed runs, `Err` for bad input or usage (exit 2).
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    let (timeout, name) = match &cli.command {
+        Command::Inspect { timeout, .. } => (*timeout, "inspect"),
+        Command::Estimate(args) => (args.timeout, "estimate"),
+        Command::Convert { timeout, .. } => (*timeout, "convert"),
+    };
+    if let Some(limit) = timeout {
+        limits::start_watchdog(limit, name);
+    }
     match cli.command {
-        Command::Inspect { file, json, quiet } => inspect_file(&file, json.as_deref(), quiet),
+        Command::Inspect {
+            file, json, quiet, ..
+        } => inspect_file(&file, json.as_deref(), quiet),
         Command::Estimate(args) => estimate::run(&args),
         Command::Convert {
             input,
             output,
             inline,
+            ..
         } => {
             check_output(&input, &output)?;
+            limits::set_stage("reading the input");
             let vtu = read::vtu::read_vtu(&input)?;
+            limits::set_stage("writing the output");
             let placement = if inline {
                 write::Placement::Inline
             } else {
@@ -146,6 +170,8 @@ pub(crate) fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::
     let mut text = serde_json::to_string_pretty(value)?;
     text.push('\n');
     if path == Path::new("-") {
+        // Like files, standard output gets the whole report or nothing (see limits).
+        let _writing = limits::output_lock();
         std::io::stdout().write_all(text.as_bytes())?;
     } else {
         write::write_atomic(path, text.as_bytes())?;
@@ -157,9 +183,12 @@ fn inspect_file(file: &Path, json: Option<&Path>, quiet: bool) -> anyhow::Result
     if let Some(j) = json {
         check_output(file, j)?;
     }
+    limits::set_stage("reading the solution");
     let vtu = read::vtu::read_vtu(file)?;
+    limits::set_stage("building the mesh");
     let data = mesh::build(vtu.clone())?;
     let topo = topology::build(&data)?;
+    limits::set_stage("summarising");
     let summary = inspect::summary(&vtu, &data, &topo);
     let to_stdout = json == Some(Path::new("-"));
     if !quiet && !to_stdout {

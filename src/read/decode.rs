@@ -443,6 +443,15 @@ fn inflate(compressor: Compressor, src: &[u8], dst: &mut [u8]) -> DecodeResult<(
             Ok(())
         }
         Compressor::Lzma => {
+            // lzma-rs accumulates a whole xz block in memory before writing it out, so the
+            // SliceWriter alone cannot stop a bomb: the chunk headers are summed first.
+            let unpacked = xz_unpacked_size(src)?;
+            if unpacked > dst.len() as u64 {
+                return Err(format!(
+                    "lzma block inflates past its declared size ({unpacked} bytes, declared {})",
+                    dst.len()
+                ));
+            }
             let mut w = SliceWriter { dst, pos: 0 };
             let mut input = src;
             lzma_rs::xz_decompress(&mut input, &mut w).map_err(|e| match e {
@@ -462,6 +471,67 @@ fn inflate(compressor: Compressor, src: &[u8], dst: &mut [u8]) -> DecodeResult<(
             }
             Ok(())
         }
+    }
+}
+
+/// The number of bytes an xz stream inflates to, read from its LZMA2 chunk headers without
+/// decoding anything (xz file format 1.0.4 §3; LZMA2 chunk headers as read by lzma-rs 0.3).
+///
+/// Each LZMA2 chunk declares its unpacked size: control byte `1`/`2` is an uncompressed chunk of
+/// `u16_be + 1` bytes; control `c ≥ 0x80` is an LZMA chunk of `((c & 0x1f) << 16 | u16_be) + 1`
+/// bytes, followed by `u16_be + 1` packed bytes (and a properties byte when `(c >> 5) & 3 ≥ 2`);
+/// `0` ends the block. Blocks with more than one filter are refused: lzma-rs would run the
+/// second filter over the first one's output, which no chunk header bounds.
+pub fn xz_unpacked_size(src: &[u8]) -> DecodeResult<u64> {
+    let corrupt = |what: &str| format!("corrupt lzma data ({what})");
+    let byte = |at: usize| src.get(at).copied().ok_or_else(|| corrupt("truncated"));
+    let u16_be =
+        |at: usize| -> DecodeResult<u64> { Ok(((byte(at)? as u64) << 8) | byte(at + 1)? as u64) };
+    if src.len() < 12 || &src[..6] != b"\xFD7zXZ\x00" {
+        return Err(corrupt("no xz stream header"));
+    }
+    // The check methods lzma-rs knows: none, CRC32, CRC64, SHA-256.
+    let check_size = match src[7] {
+        0x00 => 0,
+        0x01 => 4,
+        0x04 => 8,
+        0x0a => 32,
+        _ => return Err(corrupt("unknown check method")),
+    };
+    let mut at = 12;
+    let mut total = 0u64;
+    loop {
+        let block_start = at;
+        let size_byte = byte(at)?;
+        if size_byte == 0 {
+            return Ok(total); // the index follows: no more blocks
+        }
+        let flags = byte(at + 1)?;
+        if flags & 0x03 != 0 {
+            return Err(corrupt("more than one filter in a block"));
+        }
+        at += (size_byte as usize + 1) * 4;
+        loop {
+            let control = byte(at)?;
+            at += 1;
+            match control {
+                0 => break,
+                1 | 2 => {
+                    let n = u16_be(at)? + 1;
+                    total += n;
+                    at += 2 + n as usize;
+                }
+                0x80..=0xff => {
+                    total += ((((control & 0x1f) as u64) << 16) | u16_be(at)?) + 1;
+                    let packed = u16_be(at + 2)? + 1;
+                    let props = usize::from((control >> 5) & 3 >= 2);
+                    at += 4 + props + packed as usize;
+                }
+                _ => return Err(corrupt("invalid LZMA2 chunk")),
+            }
+        }
+        // Block padding to a multiple of four bytes, then the check.
+        at += (4 - (at - block_start) % 4) % 4 + check_size;
     }
 }
 
@@ -752,6 +822,50 @@ mod tests {
         assert_eq!(
             &payload(&p, &layout, Some(3000)).unwrap().bytes().unwrap()[..],
             &data[..]
+        );
+    }
+
+    /// An xz stream of 1 MiB declared as a 1000-byte block is refused from its chunk headers,
+    /// before lzma-rs would inflate the whole block into its own buffer.
+    #[test]
+    fn an_lzma_block_inflating_past_its_declared_size_is_refused_before_decoding() {
+        let big = vec![7u8; 1 << 20];
+        let mut xz = Vec::new();
+        lzma_rs::xz_compress(&mut &big[..], &mut xz).unwrap();
+        assert_eq!(xz_unpacked_size(&xz).unwrap(), 1 << 20);
+        let p = compressed_payload(&[xz], 1000, 0);
+        let layout = Layout {
+            compressor: Compressor::Lzma,
+            ..ZLIB64
+        };
+        let e = payload(&p, &layout, Some(1000))
+            .unwrap()
+            .bytes()
+            .unwrap_err();
+        assert_eq!(
+            e,
+            "block 0: lzma block inflates past its declared size (1048576 bytes, declared 1000)"
+        );
+    }
+
+    /// Chunk headers are summed exactly: a stream of LZMA2 chunks (uncompressed chunks of at
+    /// most 64 KiB from lzma-rs) inflating to 200 000 bytes declares 200 000; a block header
+    /// with two filters is refused.
+    #[test]
+    fn xz_chunk_headers_give_the_unpacked_size() {
+        let data: Vec<u8> = (0..200_000u32).map(|i| (i % 97) as u8).collect();
+        let mut xz = Vec::new();
+        lzma_rs::xz_compress(&mut &data[..], &mut xz).unwrap();
+        assert_eq!(xz_unpacked_size(&xz).unwrap(), 200_000);
+        let mut two_filters = xz.clone();
+        two_filters[13] |= 0x01; // block flags: number of filters − 1
+        assert_eq!(
+            xz_unpacked_size(&two_filters).unwrap_err(),
+            "corrupt lzma data (more than one filter in a block)"
+        );
+        assert_eq!(
+            xz_unpacked_size(&xz[..40]).unwrap_err(),
+            "corrupt lzma data (truncated)"
         );
     }
 

@@ -539,7 +539,11 @@ impl fmt::Display for StressLayout {
 
 /// Reads and validates the scene file at `path`.
 pub fn load_scene(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_bounded(
+        path,
+        crate::limits::MAX_SCENE_BYTES,
+        "a scene file is TOML of a few kilobytes",
+    )?;
     let text = String::from_utf8(bytes).map_err(|e| {
         Error::input(
             path,

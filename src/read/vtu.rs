@@ -17,6 +17,7 @@ use rayon::prelude::*;
 
 use super::decode::{self, Compressor, Layout, Scalar};
 use crate::error::{Error, Result};
+use crate::limits::Budget;
 
 /// VTK cell type numbers that fosls reads.
 pub mod cell_type {
@@ -153,7 +154,11 @@ impl VtuFile {
 
 /// Reads and decodes a VTU file.
 pub fn read_vtu(path: &Path) -> Result<VtuFile> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_bounded(
+        path,
+        crate::limits::max_alloc(),
+        "set FOSLS_MAX_ALLOC to raise it",
+    )?;
     parse_vtu(path, &bytes)
 }
 
@@ -265,8 +270,16 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     memchr::memmem::find(haystack, needle)
 }
 
-/// Parses the bytes of a VTU file (see [`read_vtu`]).
+/// Parses the bytes of a VTU file (see [`read_vtu`]), with the global memory cap
+/// ([`crate::limits::max_alloc`]).
 pub fn parse_vtu(path: &Path, bytes: &[u8]) -> Result<VtuFile> {
+    parse_vtu_with(path, bytes, &Budget::global())
+}
+
+/// Parses the bytes of a VTU file, reserving every decoded array (and every intermediate byte
+/// buffer whose size the file declares) from `budget` before allocating it; afterwards
+/// `budget.used()` is the file's declared data size as held in memory.
+pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuFile> {
     let err = |place: &str, problem: String| Error::input(path, place, problem);
     if bytes.iter().all(u8::is_ascii_whitespace) {
         return Err(err("file", "is empty".into()));
@@ -619,7 +632,7 @@ pub fn parse_vtu(path: &Path, bytes: &[u8]) -> Result<VtuFile> {
                 Role::Offsets | Role::Types | Role::CellData => Some(piece.cells),
                 Role::Connectivity => None,
             };
-            decode_array(s, tuples, &layout, appended.as_ref())
+            decode_array(s, tuples, &layout, appended.as_ref(), budget)
                 .map_err(|problem| err(&s.place(npieces), problem))
         })
         .collect::<Result<_>>()?;
@@ -725,6 +738,7 @@ fn decode_array(
     tuples: Option<usize>,
     layout: &Layout,
     appended: Option<&Appended>,
+    budget: &Budget,
 ) -> decode::DecodeResult<Decoded> {
     let integer = matches!(spec.role, Role::Connectivity | Role::Offsets | Role::Types);
     if integer && !spec.scalar.is_integer() {
@@ -745,6 +759,9 @@ fn decode_array(
     let raw: Vec<u8>;
     let data: &[u8] = match &spec.source {
         Source::Ascii(text) => {
+            // parse_ascii allocates at most one value per two characters of text.
+            let values = expected.unwrap_or(usize::MAX).min(text.len() / 2 + 1);
+            budget.reserve(values as u64 * 8, "the array")?;
             let out = if integer {
                 Decoded::Int(decode::parse_ascii(text, spec.scalar, expected)?)
             } else {
@@ -780,7 +797,15 @@ fn decode_array(
         }
     };
     let payload = decode::payload(data, layout, expected_bytes)?;
-    let out = if spec.scalar == Scalar::Float64 && !layout.big_endian && !integer {
+    let direct = spec.scalar == Scalar::Float64 && !layout.big_endian && !integer;
+    // Values are held as 8-byte numbers; other types inflate into a byte buffer first.
+    let values = (payload.len() / spec.scalar.size()) as u64;
+    let staging = match (&payload, direct) {
+        (decode::Payload::Blocks { .. }, false) => payload.len() as u64,
+        _ => 0,
+    };
+    budget.reserve(values * 8 + staging, "the array")?;
+    let out = if direct {
         // The common case decodes straight into the result: no intermediate byte buffer.
         let mut v = vec![0.0f64; payload.len() / 8];
         if !payload.len().is_multiple_of(8) {

@@ -48,6 +48,8 @@ pub struct SolveInfo {
     /// stationarity |Kx − b + λ| on all unknowns (scaled by max |b|).
     pub kkt_residual: f64,
     pub converged: bool,
+    /// Estimated condition number of the last system, Jacobi-scaled ([`super::condition`]).
+    pub condition_estimate: f64,
 }
 
 /// The fixed-pattern sparse Cholesky solver.
@@ -72,19 +74,30 @@ impl Factor {
         })
     }
 
-    fn solve(&self, values: &[f64], rhs: &[f64]) -> Result<Vec<f64>, String> {
+    fn factor(&self, values: &[f64]) -> Result<Llt<usize, f64>, String> {
         let mat = SparseColMat::<usize, f64>::new_from_argsort(
             self.symbolic.clone(),
             &self.argsort,
             values,
         )
         .map_err(|e| format!("sparse matrix: {e:?}"))?;
-        let llt = Llt::try_new_with_symbolic(self.llt.clone(), mat.as_ref(), Side::Lower)
-            .map_err(|e| format!("the reconstruction matrix is not positive definite ({e:?})"))?;
-        let mut x = faer::Mat::from_fn(rhs.len(), 1, |i, _| rhs[i]);
-        llt.solve_in_place(&mut x);
-        Ok((0..rhs.len()).map(|i| x[(i, 0)]).collect())
+        let llt = Llt::try_new_with_symbolic(self.llt.clone(), mat.as_ref(), Side::Lower).map_err(
+            |e| {
+                format!(
+                    "the reconstruction matrix is not positive definite ({e:?}): the stress is \
+                     not determined by the functional (at ν = 0.5 a constant pressure is free \
+                     unless a traction boundary fixes it; a displacement needs Dirichlet data)"
+                )
+            },
+        )?;
+        Ok(llt)
     }
+}
+
+fn solve_with(llt: &Llt<usize, f64>, rhs: &[f64]) -> Vec<f64> {
+    let mut x = faer::Mat::from_fn(rhs.len(), 1, |i, _| rhs[i]);
+    llt.solve_in_place(&mut x);
+    (0..rhs.len()).map(|i| x[(i, 0)]).collect()
 }
 
 /// Solves the QP; `constrained` lists the i with x_i ≤ 0. Stops after `max_iterations`
@@ -143,9 +156,11 @@ pub fn solve_bound_qp_from(
     };
     let mut x = vec![0.0; n];
     let mut lambda = vec![0.0; n];
+    let mut values = Vec::new();
+    let mut last = None;
     for it in 0..=max_iterations {
         info.iterations = it + 1;
-        let values: Vec<f64> = k
+        values = k
             .entries
             .iter()
             .enumerate()
@@ -162,7 +177,9 @@ pub fn solve_bound_qp_from(
             })
             .collect();
         let rhs: Vec<f64> = (0..n).map(|i| if active[i] { 0.0 } else { b[i] }).collect();
-        x = factor.solve(&values, &rhs)?;
+        let llt = factor.factor(&values)?;
+        x = solve_with(&llt, &rhs);
+        last = Some(llt);
         let kx = k.apply(&x);
         lambda.iter_mut().for_each(|l| *l = 0.0);
         for &i in constrained {
@@ -205,7 +222,34 @@ pub fn solve_bound_qp_from(
         / bmax;
     info.active = constrained.iter().filter(|&&i| active[i]).count();
     info.kkt_residual = primal.max(dual).max(stationarity);
+    if let Some(llt) = &last {
+        info.condition_estimate = last_system_condition(llt, k, &values);
+    }
     Ok((x, info))
+}
+
+/// κ estimate of the last system solved (active rows replaced by identity rows), reusing its
+/// numeric factor for the inverse iteration.
+fn last_system_condition(llt: &Llt<usize, f64>, k: &Lower, values: &[f64]) -> f64 {
+    let n = k.n;
+    // y = K x with the last system's values, without copying the triplets.
+    let apply = |x: &[f64]| {
+        let mut y = vec![0.0; n];
+        for (&(i, j, _), &v) in k.entries.iter().zip(values) {
+            y[i] += v * x[j];
+            if i != j {
+                y[j] += v * x[i];
+            }
+        }
+        y
+    };
+    let mut diag = vec![0.0; n];
+    for (&(i, j, _), &v) in k.entries.iter().zip(values) {
+        if i == j {
+            diag[i] += v;
+        }
+    }
+    super::condition::estimate(apply, |b| Some(solve_with(llt, b)), &diag)
 }
 
 #[cfg(test)]

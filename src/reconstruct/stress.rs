@@ -252,7 +252,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                         0.0
                     };
 
-                    if fr > 0.0 {
+                    if fr >= super::condition::MIN_CONE_FRICTION {
                         // The 2D cone |y_t| ≤ −𝔉 y_n is w₁ = y_t + 𝔉y_n ≤ 0, w₂ = −y_t + 𝔉y_n ≤ 0:
                         // y_n = (w₁ + w₂)/(2𝔉), y_t = (w₁ − w₂)/2, bounds on single unknowns.
                         let h = 0.5 / fr;

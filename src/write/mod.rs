@@ -208,6 +208,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .ok_or_else(|| Error::Usage(format!("{}: not a file name", path.display())))?;
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    // A --timeout waits for this: the file is renamed into place or not written at all.
+    let _writing = crate::limits::output_lock();
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;

@@ -1,0 +1,3 @@
+//! Helpers shared by the fuzz test binaries.
+
+pub mod alloc;
