@@ -8,12 +8,13 @@
 //! method for the complementarity function min(λ, −c x) = 0; Hintermüller, Ito, Kunisch, SIAM
 //! J. Optim. 13, 2002). Each step solves K x = b with the active constraints as equations
 //! x_i = 0: their rows and columns are replaced by the identity *inside the same sparsity
-//! pattern*, so the symbolic Cholesky factorisation (faer) is computed once and reused.
+//! pattern*, so K is compressed once and the symbolic Cholesky factorisation (faer) is computed
+//! once and reused.
 
 use faer::Side;
 use faer::prelude::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 
 /// A symmetric matrix given by its lower-triangle entries (duplicates are summed).
 pub struct Lower {
@@ -52,11 +53,14 @@ pub struct SolveInfo {
     pub condition_estimate: f64,
 }
 
-/// The fixed-pattern sparse Cholesky solver.
+/// The fixed-pattern sparse Cholesky solver: K in faer's compressed lower-triangle form,
+/// assembled once (duplicates summed); each active-set step edits a copy of its values in
+/// place and refactorises numerically with the same symbolic analysis.
 struct Factor {
     symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
     llt: SymbolicLlt<usize>,
+    /// K's values in the compressed order.
+    values: Vec<f64>,
 }
 
 impl Factor {
@@ -65,22 +69,71 @@ impl Factor {
             k.entries.iter().map(|&(i, j, _)| Pair::new(i, j)).collect();
         let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(k.n, k.n, &pairs)
             .map_err(|e| format!("sparse pattern: {e:?}"))?;
+        drop(pairs);
+        let triplet_values: Vec<f64> = k.entries.iter().map(|e| e.2).collect();
+        let mat = SparseColMat::<usize, f64>::new_from_argsort(
+            symbolic.clone(),
+            &argsort,
+            &triplet_values,
+        )
+        .map_err(|e| format!("sparse matrix: {e:?}"))?;
+        let values = mat.val().to_vec();
         let llt = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
             .map_err(|e| format!("symbolic Cholesky: {e:?}"))?;
         Ok(Factor {
             symbolic,
-            argsort,
             llt,
+            values,
         })
     }
 
-    fn factor(&self, values: &[f64]) -> Result<Llt<usize, f64>, String> {
-        let mat = SparseColMat::<usize, f64>::new_from_argsort(
-            self.symbolic.clone(),
-            &self.argsort,
-            values,
-        )
-        .map_err(|e| format!("sparse matrix: {e:?}"))?;
+    /// Calls `f(i, j, slot)` for every stored entry (i ≥ j) of the lower triangle.
+    #[inline]
+    fn for_each(&self, mut f: impl FnMut(usize, usize, usize)) {
+        let (cp, ri) = (self.symbolic.col_ptr(), self.symbolic.row_idx());
+        for j in 0..cp.len() - 1 {
+            for (slot, &i) in ri.iter().enumerate().take(cp[j + 1]).skip(cp[j]) {
+                f(i, j, slot);
+            }
+        }
+    }
+
+    /// The values of K with the rows and columns of `active` replaced by the identity.
+    fn with_active(&self, active: &[bool]) -> Vec<f64> {
+        let mut v = self.values.clone();
+        self.for_each(|i, j, slot| {
+            if active[i] || active[j] {
+                v[slot] = if i == j { 1.0 } else { 0.0 };
+            }
+        });
+        v
+    }
+
+    /// y = M x for the symmetric matrix with lower-triangle `values` in this pattern.
+    fn apply(&self, values: &[f64], x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; x.len()];
+        self.for_each(|i, j, slot| {
+            let v = values[slot];
+            y[i] += v * x[j];
+            if i != j {
+                y[j] += v * x[i];
+            }
+        });
+        y
+    }
+
+    fn diagonal(&self, values: &[f64]) -> Vec<f64> {
+        let mut d = vec![0.0; self.symbolic.ncols()];
+        self.for_each(|i, j, slot| {
+            if i == j {
+                d[i] += values[slot];
+            }
+        });
+        d
+    }
+
+    fn factor(&self, values: Vec<f64>) -> Result<(Llt<usize, f64>, Vec<f64>), String> {
+        let mat = SparseColMat::<usize, f64>::new(self.symbolic.clone(), values);
         let llt = Llt::try_new_with_symbolic(self.llt.clone(), mat.as_ref(), Side::Lower).map_err(
             |e| {
                 format!(
@@ -90,7 +143,8 @@ impl Factor {
                 )
             },
         )?;
-        Ok(llt)
+        let (_, values) = mat.into_parts();
+        Ok((llt, values))
     }
 }
 
@@ -124,17 +178,7 @@ pub fn solve_bound_qp_from(
 ) -> Result<(Vec<f64>, SolveInfo), String> {
     let n = k.n;
     let factor = Factor::new(k)?;
-    // One diagonal entry per unknown receives the 1 of an active row.
-    let mut diag_slot = vec![usize::MAX; n];
-    let mut diag = vec![0.0; n];
-    for (e, &(i, j, v)) in k.entries.iter().enumerate() {
-        if i == j {
-            diag[i] += v;
-            if diag_slot[i] == usize::MAX {
-                diag_slot[i] = e;
-            }
-        }
-    }
+    let diag = factor.diagonal(&factor.values);
     let scale = diag
         .iter()
         .fold(0.0f64, |m, d| m.max(d.abs()))
@@ -156,31 +200,14 @@ pub fn solve_bound_qp_from(
     };
     let mut x = vec![0.0; n];
     let mut lambda = vec![0.0; n];
-    let mut values = Vec::new();
     let mut last = None;
     for it in 0..=max_iterations {
         info.iterations = it + 1;
-        values = k
-            .entries
-            .iter()
-            .enumerate()
-            .map(|(e, &(i, j, v))| {
-                if active[i] || active[j] {
-                    if i == j && diag_slot[i] == e {
-                        1.0
-                    } else {
-                        0.0
-                    }
-                } else {
-                    v
-                }
-            })
-            .collect();
         let rhs: Vec<f64> = (0..n).map(|i| if active[i] { 0.0 } else { b[i] }).collect();
-        let llt = factor.factor(&values)?;
+        let (llt, values) = factor.factor(factor.with_active(&active))?;
         x = solve_with(&llt, &rhs);
-        last = Some(llt);
-        let kx = k.apply(&x);
+        last = Some((llt, values));
+        let kx = factor.apply(&factor.values, &x);
         lambda.iter_mut().for_each(|l| *l = 0.0);
         for &i in constrained {
             if active[i] {
@@ -201,7 +228,7 @@ pub fn solve_bound_qp_from(
             break;
         }
     }
-    let kx = k.apply(&x);
+    let kx = factor.apply(&factor.values, &x);
     let xmax = x
         .iter()
         .fold(0.0f64, |m, v| m.max(v.abs()))
@@ -222,34 +249,21 @@ pub fn solve_bound_qp_from(
         / bmax;
     info.active = constrained.iter().filter(|&&i| active[i]).count();
     info.kkt_residual = primal.max(dual).max(stationarity);
-    if let Some(llt) = &last {
-        info.condition_estimate = last_system_condition(llt, k, &values);
+    if let Some((llt, values)) = &last {
+        info.condition_estimate = last_system_condition(llt, &factor, values);
     }
     Ok((x, info))
 }
 
 /// κ estimate of the last system solved (active rows replaced by identity rows), reusing its
 /// numeric factor for the inverse iteration.
-fn last_system_condition(llt: &Llt<usize, f64>, k: &Lower, values: &[f64]) -> f64 {
-    let n = k.n;
-    // y = K x with the last system's values, without copying the triplets.
-    let apply = |x: &[f64]| {
-        let mut y = vec![0.0; n];
-        for (&(i, j, _), &v) in k.entries.iter().zip(values) {
-            y[i] += v * x[j];
-            if i != j {
-                y[j] += v * x[i];
-            }
-        }
-        y
-    };
-    let mut diag = vec![0.0; n];
-    for (&(i, j, _), &v) in k.entries.iter().zip(values) {
-        if i == j {
-            diag[i] += v;
-        }
-    }
-    super::condition::estimate(apply, |b| Some(solve_with(llt, b)), &diag)
+fn last_system_condition(llt: &Llt<usize, f64>, factor: &Factor, values: &[f64]) -> f64 {
+    let apply = |x: &[f64]| factor.apply(values, x);
+    super::condition::estimate(
+        apply,
+        |b| Some(solve_with(llt, b)),
+        &factor.diagonal(values),
+    )
 }
 
 #[cfg(test)]
