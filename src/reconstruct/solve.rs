@@ -204,6 +204,8 @@ pub fn solve_bound_qp_from(
     for it in 0..=max_iterations {
         info.iterations = it + 1;
         let rhs: Vec<f64> = (0..n).map(|i| if active[i] { 0.0 } else { b[i] }).collect();
+        // The previous factor goes first: two factors alive at once double the peak memory.
+        drop(last.take());
         let (llt, values) = factor.factor(factor.with_active(&active))?;
         x = solve_with(&llt, &rhs);
         last = Some((llt, values));
