@@ -84,18 +84,10 @@ fn add_reconstructed(
                 [x[1][1] - x[0][1], x[2][1] - x[0][1]],
             ]);
             let (s, _) = r.stress.at(t, &jac, [1.0 / 3.0, 1.0 / 3.0]);
-            values[9 * t..9 * t + 9]
-                .copy_from_slice(&[s[0], s[1], 0.0, s[2], s[3], 0.0, 0.0, 0.0, 0.0]);
+            values[9 * t..9 * t + 9].copy_from_slice(&report::vtu::tensor9(s));
         }
-        file.cell_data.push(DataArray {
-            name: "stress_reconstructed".into(),
-            scalar: Scalar::Float64,
-            components: 9,
-            component_names: ["xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"]
-                .map(String::from)
-                .to_vec(),
-            values,
-        });
+        file.cell_data
+            .push(report::vtu::tensor_array("stress_reconstructed", values));
     }
     if let Some((name, u)) = displacement {
         file.point_data.push(DataArray {

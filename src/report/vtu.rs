@@ -221,20 +221,12 @@ pub fn discontinuous_file(
                     rt.at(t, &jac, xi).0
                 }
             };
-            stress.extend_from_slice(&[s[0], s[1], 0.0, s[2], s[3], 0.0, 0.0, 0.0, 0.0]);
+            stress.extend_from_slice(&tensor9(s));
         }
     }
     let mut file = VtuFile::from_cells(path, points, &cells);
     file.point_data = vec![
-        DataArray {
-            name: "stress".into(),
-            scalar: Scalar::Float64,
-            components: 9,
-            component_names: ["xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"]
-                .map(String::from)
-                .to_vec(),
-            values: stress,
-        },
+        tensor_array("stress", stress),
         DataArray {
             name: "displacement".into(),
             scalar: Scalar::Float64,
@@ -258,6 +250,25 @@ pub fn discontinuous_file(
             .collect(),
     )];
     file
+}
+
+/// A row-major 2×2 stress as the 9 components of a 3×3 tensor (zeros out of plane).
+#[inline]
+pub fn tensor9(s: [f64; 4]) -> [f64; 9] {
+    [s[0], s[1], 0.0, s[2], s[3], 0.0, 0.0, 0.0, 0.0]
+}
+
+/// A 9-component tensor array (row-major `xx, xy, …, zz`, ParaView's tensor order).
+pub fn tensor_array(name: &str, values: Vec<f64>) -> DataArray {
+    DataArray {
+        name: name.into(),
+        scalar: Scalar::Float64,
+        components: 9,
+        component_names: ["xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"]
+            .map(String::from)
+            .to_vec(),
+        values,
+    }
 }
 
 /// The path of the discontinuous copy for `--output OUT`: `OUT` with `_discontinuous` added to
