@@ -310,7 +310,7 @@ fn child(spec: &str) {
 
     // The same pattern analysed again: distinct nonzeros, factor size, and the time of one
     // symbolic and one numeric factorisation of that pattern.
-    let ntri = data.mesh.triangles.len();
+    let ntri = data.mesh.cells.len();
     let contact_points = bounds
         .edges
         .iter()

@@ -8,14 +8,18 @@ pub mod element;
 pub mod error;
 pub mod estimate;
 pub mod expr;
+pub mod geometry;
 pub mod inspect;
+pub mod field;
 pub mod limits;
+pub mod material;
 pub mod mesh;
 pub mod problem;
 pub mod quadrature;
 pub mod read;
 pub mod reconstruct;
 pub mod report;
+pub mod tolerance;
 pub mod topology;
 pub mod write;
 

@@ -11,57 +11,115 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::read::vtu::{DataArray, VtuFile, cell_type};
+use crate::geometry::{self, Family, MAX_NODES, Shape};
+use crate::read::cell_type;
+use crate::read::vtu::{DataArray, VtuFile};
+use crate::tolerance;
 
 /// Marks an absent node (the mid nodes of P1 cells).
 pub const NONE: u32 = u32::MAX;
 
-/// Relative tolerance for merging node copies of an exploded mesh: copies closer than this
-/// times the shortest edge of the cells that hold them are one node.
-pub const MERGE_TOLERANCE: f64 = 1e-6;
-
-/// A 2D triangle mesh of degree 1 (straight) or 2 (isoparametric, possibly curved).
+/// A 2D mesh of triangles and quadrilaterals of degree 1 (straight) or 2 (isoparametric,
+/// possibly curved), in any mix of families of one degree (docs/design.md §4.3).
 ///
-/// Node order is VTK's: vertices 0, 1, 2 counter-clockwise, then mid-edge nodes 3 on (0, 1),
-/// 4 on (1, 2), 5 on (2, 0). Lines are `[end, end, mid]`.
+/// Node order is VTK's per family ([`crate::geometry`]): vertices counter-clockwise, then one
+/// node per edge (edge k from vertex k to k + 1, node n_v + k), then the centre of a Q2 cell.
+/// Lines are `[end, end, mid]`.
 #[derive(Clone, Debug)]
 pub struct Mesh {
     pub points: Vec<[f64; 2]>,
-    /// 1 or 2.
+    /// Largest trace degree of the cells: 1 or 2.
     pub degree: usize,
-    /// P1 cells have `NONE` in slots 3..6.
-    pub triangles: Vec<[u32; 6]>,
+    /// Nodes of each cell; slots past the family's node count are `NONE`.
+    pub cells: Vec<[u32; MAX_NODES]>,
+    pub family: Vec<Family>,
+    /// Affine, bilinear or curved: decided once here with [`tolerance::CURVED_RELATIVE`].
+    pub shape: Vec<Shape>,
     /// Boundary line cells of the file; slot 2 is `NONE` for straight lines.
     pub lines: Vec<[u32; 3]>,
-    /// Index in the VTU file of each triangle (for messages and cell data).
-    pub triangle_cell: Vec<u32>,
+    /// Index in the VTU file of each cell (for messages and cell data).
+    pub file_cell: Vec<u32>,
     /// Index in the VTU file of each line.
     pub line_cell: Vec<u32>,
 }
 
 impl Mesh {
-    /// Nodes of triangle `t`: 3 for P1, 6 for P2.
-    pub fn nodes(&self, t: usize) -> &[u32] {
-        &self.triangles[t][..if self.degree == 2 { 6 } else { 3 }]
+    /// Number of 2D cells.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.cells.len()
     }
 
-    /// Node coordinates of triangle `t` (6 slots; P1 cells fill only the first 3).
-    pub fn coords(&self, t: usize) -> [[f64; 2]; 6] {
-        let mut x = [[0.0; 2]; 6];
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// Nodes of cell `t`.
+    #[inline]
+    pub fn nodes(&self, t: usize) -> &[u32] {
+        &self.cells[t][..self.family[t].nodes()]
+    }
+
+    /// Vertices of cell `t` (3 or 4).
+    #[inline]
+    pub fn vertices(&self, t: usize) -> &[u32] {
+        &self.cells[t][..self.family[t].vertices()]
+    }
+
+    /// Node coordinates of cell `t` (slots past the family's node count are 0).
+    #[inline]
+    pub fn coords(&self, t: usize) -> [[f64; 2]; MAX_NODES] {
+        let mut x = [[0.0; 2]; MAX_NODES];
         for (k, &n) in self.nodes(t).iter().enumerate() {
             x[k] = self.points[n as usize];
         }
         x
     }
 
-    /// Twice the signed area of the straight triangle through the vertices of `t`.
+    /// Whether cell `t` has a constant Jacobian.
+    #[inline]
+    pub fn is_affine(&self, t: usize) -> bool {
+        self.shape[t] == Shape::Affine
+    }
+
+    /// Whether cell `t` has a curved edge.
+    #[inline]
+    pub fn is_curved(&self, t: usize) -> bool {
+        self.shape[t] == Shape::Curved
+    }
+
+    /// The global end vertices and mid node of local edge `k` of cell `t`.
+    #[inline]
+    pub fn edge(&self, t: usize, k: usize) -> [u32; 3] {
+        let [a, b, m] = self.family[t].edge_nodes(k);
+        let c = &self.cells[t];
+        [c[a], c[b], if m == usize::MAX { NONE } else { c[m] }]
+    }
+
+    /// Twice the signed area of the straight polygon through the vertices of `t`.
     pub fn double_area(&self, t: usize) -> f64 {
-        let [a, b, c, ..] = self.triangles[t];
-        double_area(
-            self.points[a as usize],
-            self.points[b as usize],
-            self.points[c as usize],
-        )
+        let v = self.vertices(t);
+        let p0 = self.points[v[0] as usize];
+        let mut a = 0.0;
+        for k in 1..v.len() - 1 {
+            a += double_area(p0, self.points[v[k] as usize], self.points[v[k + 1] as usize]);
+        }
+        a
+    }
+
+    /// The families present, in order.
+    pub fn families(&self) -> Vec<Family> {
+        let mut seen = [false; 5];
+        for f in &self.family {
+            seen[f.index()] = true;
+        }
+        Family::ALL.into_iter().filter(|f| seen[f.index()]).collect()
+    }
+
+    /// Whether any cell is a quadrilateral.
+    pub fn has_quads(&self) -> bool {
+        self.family.iter().any(|f| f.is_quad())
     }
 
     /// Bounding box `[xmin, ymin, xmax, ymax]`.
@@ -116,8 +174,10 @@ pub struct Jump {
 pub struct MeshReport {
     pub vertex_cells_ignored: usize,
     pub merge: Option<Merge>,
-    /// P2 cells with a mid-edge node off the chord midpoint.
+    /// Cells with an edge or centre node off its straight position.
     pub curved_cells: usize,
+    /// Straight quadrilaterals that are no parallelogram.
+    pub bilinear_cells: usize,
     /// Clockwise cells reordered counter-clockwise.
     pub reoriented: usize,
     /// Line cells lying on interior edges (file cell indices).
@@ -131,8 +191,8 @@ pub struct Dataset {
     pub mesh: Mesh,
     /// One tuple per mesh point (averaged over copies for exploded meshes).
     pub point_data: Vec<DataArray>,
-    /// Cell arrays restricted to the triangles.
-    pub triangle_data: Vec<DataArray>,
+    /// Cell arrays restricted to the 2D cells.
+    pub cell_data: Vec<DataArray>,
     /// Cell arrays restricted to the lines.
     pub line_data: Vec<DataArray>,
     pub report: MeshReport,
@@ -159,6 +219,24 @@ pub fn list_indices(ix: &[usize]) -> String {
     s
 }
 
+/// The order of Lagrange cell `c` from a `HigherOrderDegrees` cell array, if the file has one.
+fn declared_order(file: &VtuFile, c: usize) -> Option<std::result::Result<usize, String>> {
+    let a = file
+        .cell_data
+        .iter()
+        .find(|a| a.name == "HigherOrderDegrees")?;
+    let v = &a.values[c * a.components..(c + 1) * a.components];
+    let p = v[0];
+    let t = file.types[c];
+    let dims = if t == cell_type::LAGRANGE_CURVE { 1 } else { 2 };
+    if v[..dims.min(v.len())].iter().any(|&d| d != p) || p.fract() != 0.0 || p < 1.0 {
+        return Some(Err(format!(
+            "HigherOrderDegrees {v:?} is not one integer order ≥ 1 in every direction"
+        )));
+    }
+    Some(Ok(p as usize))
+}
+
 /// Builds the mesh and fields from a file, or says what is wrong with it.
 pub fn build(file: VtuFile) -> Result<Dataset> {
     let path = file.path.clone();
@@ -176,48 +254,118 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
         .points
         .iter()
         .fold(0.0f64, |m, p| m.max(p[0].abs()).max(p[1].abs()));
-    if !file.points.is_empty() && zmax - zmin > 1e-12 * extent.max(f64::MIN_POSITIVE) {
+    if !file.points.is_empty()
+        && zmax - zmin > tolerance::PLANAR_RELATIVE * extent.max(f64::MIN_POSITIVE)
+    {
         return Err(err(
             "Points",
-            format!("z ranges over [{zmin}, {zmax}]; fosls reads planar 2D meshes (z constant)"),
+            format!(
+                "z ranges over [{zmin}, {zmax}]; fosls reads planar 2D meshes (z constant); \
+                 3D meshes are not supported yet"
+            ),
         ));
     }
 
     // Classify cells.
     let mut degree = 0usize;
-    let mut triangles = Vec::new();
-    let mut triangle_cell = Vec::new();
+    let mut cells = Vec::new();
+    let mut family = Vec::new();
+    let mut file_cell = Vec::new();
     let mut lines = Vec::new();
     let mut line_cell = Vec::new();
     for c in 0..file.cell_count() {
         let n = file.cell(c);
         let t = file.types[c];
-        match t {
-            cell_type::VERTEX => report.vertex_cells_ignored += 1,
-            cell_type::TRIANGLE | cell_type::QUADRATIC_TRIANGLE => {
-                let d = if t == cell_type::TRIANGLE { 1 } else { 2 };
-                if degree != 0 && degree != d {
+        let is_lagrange = matches!(
+            t,
+            cell_type::LAGRANGE_CURVE | cell_type::LAGRANGE_TRIANGLE | cell_type::LAGRANGE_QUADRILATERAL
+        );
+        let order = if is_lagrange {
+            let from_count = cell_type::lagrange_order(t, n.len()).ok_or_else(|| {
+                err(
+                    &format!("cell {c}"),
+                    format!(
+                        "{} with {} nodes fits no Lagrange order",
+                        cell_type::name(t),
+                        n.len()
+                    ),
+                )
+            })?;
+            if let Some(d) = declared_order(&file, c) {
+                let d = d.map_err(|m| err(&format!("cell {c}"), m))?;
+                if d != from_count {
                     return Err(err(
                         &format!("cell {c}"),
-                        "mixes linear and quadratic triangles in one mesh".into(),
+                        format!(
+                            "{} has {} nodes (order {from_count}) but HigherOrderDegrees says \
+                             order {d}",
+                            cell_type::name(t),
+                            n.len()
+                        ),
                     ));
                 }
-                degree = d;
-                let mut tri = [NONE; 6];
-                tri[..n.len()].copy_from_slice(n);
-                triangles.push(tri);
-                triangle_cell.push(c as u32);
             }
-            _ => {
+            if from_count > 2 {
+                return Err(err(
+                    &format!("cell {c}"),
+                    format!(
+                        "is a {} of order {from_count}; fosls reads Lagrange cells of order 1 \
+                         and 2",
+                        cell_type::name(t)
+                    ),
+                ));
+            }
+            from_count
+        } else {
+            0
+        };
+        match cell_type::kind(t, n.len(), order) {
+            cell_type::Kind::Point => report.vertex_cells_ignored += 1,
+            cell_type::Kind::Line => {
                 lines.push([n[0], n[1], if n.len() == 3 { n[2] } else { NONE }]);
                 line_cell.push(c as u32);
             }
+            cell_type::Kind::Cell(f) => {
+                if degree != 0 && degree != f.degree() {
+                    return Err(err(
+                        &format!("cell {c}"),
+                        "mixes linear and quadratic cells in one mesh".into(),
+                    ));
+                }
+                degree = f.degree();
+                let mut nodes = [NONE; MAX_NODES];
+                nodes[..n.len()].copy_from_slice(n);
+                cells.push(nodes);
+                family.push(f);
+                file_cell.push(c as u32);
+            }
+            cell_type::Kind::Solid => {
+                return Err(err(
+                    &format!("cell {c}"),
+                    format!(
+                        "3D cells are not supported yet ({}, VTK type {t}); fosls reads 2D \
+                         meshes of triangles and quadrilaterals",
+                        cell_type::name(t)
+                    ),
+                ));
+            }
+            cell_type::Kind::Unsupported => {
+                return Err(err(
+                    &format!("cell {c}"),
+                    format!(
+                        "has unsupported VTK cell type {t} ({}); fosls reads vertices, lines, \
+                         triangles and quadrilaterals, linear, quadratic and Lagrange of order \
+                         1 and 2 (VTK 1, 3, 5, 9, 21, 22, 23, 28, 68, 69, 70)",
+                        cell_type::name(t)
+                    ),
+                ));
+            }
         }
     }
-    if triangles.is_empty() {
+    if cells.is_empty() {
         return Err(err(
             "Cells",
-            "no triangles (fosls needs a 2D mesh of triangles)".into(),
+            "no 2D cells (fosls needs a mesh of triangles or quadrilaterals)".into(),
         ));
     }
     if degree == 1
@@ -225,16 +373,19 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
     {
         return Err(err(
             &format!("cell {}", line_cell[k]),
-            "is a quadratic edge in a mesh of linear triangles".into(),
+            "is a quadratic edge in a mesh of linear cells".into(),
         ));
     }
 
+    let shape = vec![Shape::Affine; cells.len()];
     let mut mesh = Mesh {
         points: file.points.iter().map(|p| [p[0], p[1]]).collect(),
         degree,
-        triangles,
+        cells,
+        family,
+        shape,
         lines,
-        triangle_cell,
+        file_cell,
         line_cell,
     };
     let mut point_data = file.point_data;
@@ -244,7 +395,7 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
 
     check_geometry(&mut mesh, &mut report).map_err(|(place, problem)| err(&place, problem))?;
 
-    // Split cell data between triangles and lines.
+    // Split cell data between 2D cells and lines.
     let pick = |a: &DataArray, cells: &[u32]| DataArray {
         values: cells
             .iter()
@@ -255,10 +406,10 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
             .collect(),
         ..a.clone()
     };
-    let triangle_data = file
+    let cell_data = file
         .cell_data
         .iter()
-        .map(|a| pick(a, &mesh.triangle_cell))
+        .map(|a| pick(a, &mesh.file_cell))
         .collect();
     let line_data = file
         .cell_data
@@ -270,44 +421,51 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
         path,
         mesh,
         point_data,
-        triangle_data,
+        cell_data,
         line_data,
         report,
     })
 }
 
-/// Orientation, zero-area, duplicate and curved-cell checks. All-clockwise meshes are
-/// reordered; a mix of orientations means inverted cells.
+/// The node permutation that reverses the orientation of a cell of `family`.
+fn reversal(family: Family) -> &'static [usize] {
+    match family {
+        Family::Tri3 => &[0, 2, 1],
+        Family::Tri6 => &[0, 2, 1, 5, 4, 3],
+        Family::Quad4 => &[0, 3, 2, 1],
+        Family::Quad8 => &[0, 3, 2, 1, 7, 6, 5, 4],
+        Family::Quad9 => &[0, 3, 2, 1, 7, 6, 5, 4, 8],
+    }
+}
+
+/// Orientation, zero-area, duplicate and shape checks. All-clockwise meshes are reordered; a
+/// mix of orientations means inverted cells. The shape of each cell (affine, bilinear,
+/// curved) is decided here, once.
 fn check_geometry(
     mesh: &mut Mesh,
     report: &mut MeshReport,
 ) -> std::result::Result<(), (String, String)> {
-    let n = mesh.triangles.len();
+    let n = mesh.cells.len();
     let areas: Vec<f64> = (0..n)
         .into_par_iter()
         .map(|t| mesh.double_area(t))
         .collect();
     let scales: Vec<f64> = (0..n)
         .into_par_iter()
-        .map(|t| {
-            let [a, b, c, ..] = mesh.triangles[t];
-            let (a, b, c) = (
-                mesh.points[a as usize],
-                mesh.points[b as usize],
-                mesh.points[c as usize],
-            );
-            dist(a, b).max(dist(b, c)).max(dist(c, a))
-        })
+        .map(|t| geometry::diameter(mesh.family[t], &mesh.coords(t)))
         .collect();
     let degenerate: Vec<usize> = (0..n)
-        .filter(|&t| areas[t].abs() <= 1e-12 * scales[t].powi(2))
-        .map(|t| mesh.triangle_cell[t] as usize)
+        .filter(|&t| {
+            !(areas[t].abs() > tolerance::DEGENERATE_AREA_RELATIVE * scales[t].powi(2))
+        })
+        .map(|t| mesh.file_cell[t] as usize)
         .collect();
     if !degenerate.is_empty() {
         return Err((
             "Cells".into(),
             format!(
-                "zero-area triangles: cells {} ({} in all)",
+                "zero-area {}: cells {} ({} in all)",
+                noun(mesh),
                 list_indices(&degenerate),
                 degenerate.len()
             ),
@@ -316,52 +474,50 @@ fn check_geometry(
     // Node order is a writer's convention: clockwise cells are reordered counter-clockwise.
     // A truly inverted cell overlaps its neighbour; topology finds that as a shared edge with
     // both cells on the same side.
-    for (t, tri) in mesh.triangles.iter_mut().enumerate() {
+    for (t, cell) in mesh.cells.iter_mut().enumerate() {
         if areas[t] < 0.0 {
-            *tri = [tri[0], tri[2], tri[1], tri[5], tri[4], tri[3]];
+            let p = reversal(mesh.family[t]);
+            let old = *cell;
+            for (k, &j) in p.iter().enumerate() {
+                cell[k] = old[j];
+            }
             report.reoriented += 1;
         }
     }
 
-    if mesh.degree == 2 {
-        // A curved cell must keep a positive Jacobian: checked at the vertices, where
-        // det J of the P2 map is smallest for moderately curved cells.
-        let mut inverted = Vec::new();
-        let mut curved = 0;
-        for (t, &h) in scales.iter().enumerate() {
-            let x = mesh.coords(t);
-            let off = |k: usize, a: usize, b: usize| {
-                dist(x[k], [(x[a][0] + x[b][0]) / 2.0, (x[a][1] + x[b][1]) / 2.0])
-            };
-            if off(3, 0, 1).max(off(4, 1, 2)).max(off(5, 2, 0)) > 1e-12 * h {
-                curved += 1;
-                if p2_vertex_jacobians(&x).iter().any(|&d| d <= 0.0) {
-                    inverted.push(mesh.triangle_cell[t] as usize);
-                }
-            }
-        }
-        report.curved_cells = curved;
-        if !inverted.is_empty() {
-            return Err((
-                "Cells".into(),
-                format!(
-                    "curved triangles with a non-positive Jacobian (mid-edge node too far off \
-                     the chord): cells {} ({} in all)",
-                    list_indices(&inverted),
-                    inverted.len()
-                ),
-            ));
-        }
+    // Shapes, decided once; a non-affine cell must keep a positive Jacobian at its nodes and
+    // at the points of a moderate rule.
+    let shapes: Vec<Shape> = (0..n)
+        .into_par_iter()
+        .map(|t| geometry::classify(mesh.family[t], &mesh.coords(t), tolerance::CURVED_RELATIVE))
+        .collect();
+    let inverted: Vec<usize> = (0..n)
+        .into_par_iter()
+        .filter(|&t| shapes[t] != Shape::Affine && !positive_jacobian(mesh, t))
+        .map(|t| mesh.file_cell[t] as usize)
+        .collect();
+    report.curved_cells = shapes.iter().filter(|&&s| s == Shape::Curved).count();
+    report.bilinear_cells = shapes.iter().filter(|&&s| s == Shape::Bilinear).count();
+    mesh.shape = shapes;
+    if !inverted.is_empty() {
+        return Err((
+            "Cells".into(),
+            format!(
+                "{} with a non-positive Jacobian (a mid-edge node too far off the chord, or a \
+                 non-convex quadrilateral): cells {} ({} in all)",
+                if mesh.has_quads() { "cells" } else { "curved triangles" },
+                list_indices(&inverted),
+                inverted.len()
+            ),
+        ));
     }
 
     // Duplicates: equal vertex sets.
-    let mut keys: Vec<([u32; 3], usize)> = (0..n)
+    let mut keys: Vec<([u32; 4], usize)> = (0..n)
         .map(|t| {
-            let mut k = [
-                mesh.triangles[t][0],
-                mesh.triangles[t][1],
-                mesh.triangles[t][2],
-            ];
+            let v = mesh.vertices(t);
+            let mut k = [NONE; 4];
+            k[..v.len()].copy_from_slice(v);
             k.sort_unstable();
             (k, t)
         })
@@ -370,13 +526,14 @@ fn check_geometry(
     let dups: Vec<usize> = keys
         .windows(2)
         .filter(|w| w[0].0 == w[1].0)
-        .map(|w| mesh.triangle_cell[w[1].1] as usize)
+        .map(|w| mesh.file_cell[w[1].1] as usize)
         .collect();
     if !dups.is_empty() {
         return Err((
             "Cells".into(),
             format!(
-                "duplicate triangles (same vertices as an earlier cell): cells {} ({} in all)",
+                "duplicate {} (same vertices as an earlier cell): cells {} ({} in all)",
+                noun(mesh),
                 list_indices(&dups),
                 dups.len()
             ),
@@ -385,35 +542,21 @@ fn check_geometry(
     Ok(())
 }
 
-/// det J of the P2 map at the three vertices of the reference triangle.
-///
-/// With λ₁ = ξ, λ₂ = η, λ₀ = 1 − ξ − η and φ₀ = λ₀(2λ₀ − 1), …, φ₃ = 4λ₀λ₁, φ₄ = 4λ₁λ₂,
-/// φ₅ = 4λ₂λ₀: at vertex 0, ∂x/∂ξ = −3x₀ − x₁ + 4x₃ and ∂x/∂η = −3x₀ − x₂ + 4x₅, and
-/// likewise at the other vertices.
-fn p2_vertex_jacobians(x: &[[f64; 2]; 6]) -> [f64; 3] {
-    let comb = |c: &[(usize, f64)]| {
-        let mut v = [0.0; 2];
-        for &(k, w) in c {
-            v[0] += w * x[k][0];
-            v[1] += w * x[k][1];
-        }
-        v
-    };
-    let det = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
-    [
-        det(
-            comb(&[(0, -3.0), (1, -1.0), (3, 4.0)]),
-            comb(&[(0, -3.0), (2, -1.0), (5, 4.0)]),
-        ),
-        det(
-            comb(&[(0, 1.0), (1, 3.0), (3, -4.0)]),
-            comb(&[(0, 1.0), (2, -1.0), (3, -4.0), (4, 4.0)]),
-        ),
-        det(
-            comb(&[(0, 1.0), (1, -1.0), (4, 4.0), (5, -4.0)]),
-            comb(&[(0, 1.0), (2, 3.0), (5, -4.0)]),
-        ),
-    ]
+/// "triangles" on triangle meshes, "cells" otherwise (messages).
+fn noun(mesh: &Mesh) -> &'static str {
+    if mesh.has_quads() { "cells" } else { "triangles" }
+}
+
+/// det J > 0 at every node of the reference cell and at the points of a degree-4 rule.
+fn positive_jacobian(mesh: &Mesh, t: usize) -> bool {
+    let f = mesh.family[t];
+    let x = mesh.coords(t);
+    let nodes = f.reference_nodes().iter().copied();
+    let rule = geometry::table(f, 4, false).points.iter().copied();
+    nodes.chain(rule).all(|xi| {
+        let (_, g) = f.shape(xi);
+        geometry::values::jacobian(&x, f.nodes(), &g).det > 0.0
+    })
 }
 
 /// Merges node copies and averages point data over copies, recording the largest jump per
@@ -426,11 +569,11 @@ fn merge_copies(
     piece_points: &[usize],
 ) -> Option<Merge> {
     let np = mesh.points.len();
-    if mesh.triangles.len() < 2 {
+    if mesh.cells.len() < 2 {
         return None;
     }
     let mut users = vec![0u8; np];
-    for t in 0..mesh.triangles.len() {
+    for t in 0..mesh.cells.len() {
         for &v in mesh.nodes(t) {
             users[v as usize] = users[v as usize].saturating_add(1);
         }
@@ -454,14 +597,16 @@ fn merge_copies(
 
     // Local size: the shortest vertex-to-vertex edge of the cell holding the node.
     let mut size = vec![f64::INFINITY; np];
-    for t in 0..mesh.triangles.len() {
-        let [a, b, c, ..] = mesh.triangles[t];
-        let (pa, pb, pc) = (
-            mesh.points[a as usize],
-            mesh.points[b as usize],
-            mesh.points[c as usize],
-        );
-        let h = dist(pa, pb).min(dist(pb, pc)).min(dist(pc, pa));
+    for t in 0..mesh.cells.len() {
+        let v = mesh.vertices(t);
+        let h = (0..v.len())
+            .map(|k| {
+                dist(
+                    mesh.points[v[k] as usize],
+                    mesh.points[v[(k + 1) % v.len()] as usize],
+                )
+            })
+            .fold(f64::INFINITY, f64::min);
         for &v in mesh.nodes(t) {
             size[v as usize] = size[v as usize].min(h);
         }
@@ -478,7 +623,7 @@ fn merge_copies(
         .iter()
         .map(|&s| {
             if s.is_finite() {
-                MERGE_TOLERANCE * s
+                tolerance::MERGE_RELATIVE * s
             } else {
                 0.0
             }
@@ -595,7 +740,7 @@ fn merge_copies(
             },
         });
     }
-    for tri in &mut mesh.triangles {
+    for tri in &mut mesh.cells {
         for v in tri.iter_mut().filter(|v| **v != NONE) {
             *v = new_index[*v as usize];
         }
@@ -651,9 +796,9 @@ mod tests {
         f.cell_data.push(array("tag", 1, vec![10., 11., 12., 13.]));
         let d = build(f).unwrap();
         assert_eq!(d.mesh.degree, 1);
-        assert_eq!(d.mesh.triangles.len(), 2);
+        assert_eq!(d.mesh.cells.len(), 2);
         assert_eq!(d.mesh.lines, vec![[0, 1, NONE]]);
-        assert_eq!(d.triangle_data[0].values, vec![10., 11.]);
+        assert_eq!(d.cell_data[0].values, vec![10., 11.]);
         assert_eq!(d.line_data[0].values, vec![12.]);
         assert_eq!(d.report.vertex_cells_ignored, 1);
         assert_eq!(d.report.reoriented, 0);
@@ -685,7 +830,7 @@ mod tests {
             &[(22, vec![0, 2, 1, 5, 4, 3])],
         ))
         .unwrap();
-        assert_eq!(d.mesh.triangles[0], [0, 1, 2, 3, 4, 5]);
+        assert_eq!(d.mesh.cells[0][..6], [0, 1, 2, 3, 4, 5]);
     }
 
     #[test]
@@ -735,7 +880,7 @@ mod tests {
         let d = build(f).unwrap();
         let m = d.report.merge.as_ref().unwrap();
         assert_eq!((m.points_in_file, m.points_merged), (6, 4));
-        assert_eq!(d.mesh.triangles[1][..3], [1, 3, 2]);
+        assert_eq!(d.mesh.cells[1][..3], [1, 3, 2]);
         assert_eq!(m.jumps[0].max, 0.0);
         assert_eq!(m.jumps[1].max, 0.5);
         assert_eq!(m.jumps[1].relative, 0.25);
@@ -790,7 +935,8 @@ mod tests {
         f.points[3][2] = 0.5;
         assert_eq!(
             build(f).unwrap_err().to_string(),
-            "m.vtu: Points: z ranges over [0, 0.5]; fosls reads planar 2D meshes (z constant)"
+            "m.vtu: Points: z ranges over [0, 0.5]; fosls reads planar 2D meshes (z constant); 3D \
+             meshes are not supported yet"
         );
     }
 }

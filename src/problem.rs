@@ -192,7 +192,7 @@ fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<Option<&'a
     if let Some(name) = &scene.fields.displacement {
         let place = "fields.displacement";
         let Some(a) = data.point_array(name) else {
-            let cell = if data.triangle_data.iter().any(|a| &a.name == name) {
+            let cell = if data.cell_data.iter().any(|a| &a.name == name) {
                 " (it is a cell array; the displacement must be point data)"
             } else {
                 ""
@@ -250,7 +250,7 @@ fn select_stress(data: &Dataset, scene: &Scene, notes: &mut Vec<String>) -> Resu
     let (array, kind) = if let Some(name) = &scene.fields.stress {
         match (
             find(&data.point_data, name),
-            find(&data.triangle_data, name),
+            find(&data.cell_data, name),
         ) {
             (Some(p), c) => {
                 if c.is_some() {
@@ -262,7 +262,7 @@ fn select_stress(data: &Dataset, scene: &Scene, notes: &mut Vec<String>) -> Resu
                 }
                 (&data.point_data[p], Kind::Point)
             }
-            (None, Some(c)) => (&data.triangle_data[c], Kind::Cell),
+            (None, Some(c)) => (&data.cell_data[c], Kind::Cell),
             (None, None) => {
                 return Err(scene.error(
                     "fields.stress",
@@ -271,7 +271,7 @@ fn select_stress(data: &Dataset, scene: &Scene, notes: &mut Vec<String>) -> Resu
                         name.escape_debug(),
                         data.path.display(),
                         list_arrays(&data.point_data),
-                        list_arrays(&data.triangle_data)
+                        list_arrays(&data.cell_data)
                     ),
                 ));
             }
@@ -283,7 +283,7 @@ fn select_stress(data: &Dataset, scene: &Scene, notes: &mut Vec<String>) -> Resu
             .filter(|a| named_like(a, &STRESS_NAMES))
             .collect();
         let cells: Vec<&DataArray> = data
-            .triangle_data
+            .cell_data
             .iter()
             .filter(|a| named_like(a, &STRESS_NAMES))
             .collect();
@@ -531,7 +531,7 @@ fn check_finite(data: &Dataset, a: &DataArray, kind: Kind) -> Result<()> {
             let p = data.mesh.points[tuple];
             format!("point {tuple} (x = {}, y = {})", short(p[0]), short(p[1]))
         }
-        Kind::Cell => format!("cell {}", data.mesh.triangle_cell[tuple]),
+        Kind::Cell => format!("cell {}", data.mesh.file_cell[tuple]),
     };
     Err(Error::input(
         &data.path,
@@ -1498,7 +1498,7 @@ gap = "0.1"
             .iter()
             .filter(|e| e.condition == condition)
             .map(|e| {
-                let tri = d.mesh.triangles[e.cell as usize];
+                let tri = d.mesh.cells[e.cell as usize];
                 let k = e.local as usize;
                 let (p, q) = (
                     d.mesh.points[tri[k] as usize],
@@ -1520,7 +1520,7 @@ gap = "0.1"
         );
         for e in &b.edges {
             assert_eq!(t.cell_edges[e.cell as usize][e.local as usize], e.edge);
-            let tri = d.mesh.triangles[e.cell as usize];
+            let tri = d.mesh.cells[e.cell as usize];
             let k = e.local as usize;
             let (p, q) = (
                 d.mesh.points[tri[k] as usize],

@@ -11,19 +11,20 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::mesh::{Dataset, Mesh, NONE, list_indices};
 
-/// Edges of a triangle mesh and their incidences.
+/// Edges of a mesh of triangles and quadrilaterals and their incidences.
 #[derive(Clone, Debug)]
 pub struct Topology {
     /// Vertex pair of each edge, smaller index first.
     pub edges: Vec<[u32; 2]>,
-    /// Mid-edge node of each edge (`NONE` for P1 meshes).
+    /// Mid-edge node of each edge (`NONE` for linear cells).
     pub edge_mid: Vec<u32>,
     /// Cells on each side of an edge; the second is `NONE` on the boundary.
     pub edge_cells: Vec<[u32; 2]>,
-    /// Edges of each triangle, local edge `k` from local vertex `k` to `(k + 1) % 3`.
-    pub cell_edges: Vec<[u32; 3]>,
+    /// Edges of each cell, local edge `k` from local vertex `k` to `(k + 1) % n_v`; slot 3 is
+    /// `NONE` for triangles.
+    pub cell_edges: Vec<[u32; 4]>,
     /// +1 where local and global edge directions agree, −1 otherwise.
-    pub cell_edge_sign: Vec<[i8; 3]>,
+    pub cell_edge_sign: Vec<[i8; 4]>,
     /// Boundary edges (one adjacent cell), ascending.
     pub boundary_edges: Vec<u32>,
     /// Edge of each line cell of the mesh.
@@ -35,30 +36,39 @@ impl Topology {
     pub fn is_boundary(&self, e: usize) -> bool {
         self.edge_cells[e][1] == NONE
     }
+
+    /// The edge with vertices `a`, `b`, if any.
+    pub fn find_edge(&self, a: u32, b: u32) -> Option<usize> {
+        self.edges.binary_search(&[a.min(b), a.max(b)]).ok()
+    }
 }
 
-/// Builds the topology, or reports non-manifold edges, non-conforming P2 edges and line cells
-/// that are no edge of the mesh (with file cell indices).
-pub fn build(data: &Dataset) -> Result<Topology> {
-    let err = |problem: String| Error::input(&data.path, "Cells", problem);
-    let mesh: &Mesh = &data.mesh;
-    let n = mesh.triangles.len();
-
+/// Edges of cells given as vertex loops (counter-clockwise, `n[c]` vertices each) with an
+/// optional mid node per local edge: the shared core of [`build`] and of the sub-triangulation
+/// of [`crate::reconstruct`]. Returns the topology (without line cells) and the cells that hit
+/// each defect: (non-manifold, non-conforming mid nodes, folded).
+pub fn from_loops(
+    n: usize,
+    vertex: impl Fn(usize, usize) -> u32 + Sync,
+    count: impl Fn(usize) -> usize + Sync,
+    mid: impl Fn(usize, usize) -> u32 + Sync,
+) -> (Topology, [Vec<usize>; 3]) {
     // (vertex pair, cell, local edge), sorted: equal pairs are one edge.
     let mut half: Vec<([u32; 2], u32, u8)> = Vec::with_capacity(3 * n);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+    for t in 0..n {
+        let nv = count(t);
+        for k in 0..nv {
+            let (a, b) = (vertex(t, k), vertex(t, (k + 1) % nv));
             half.push(([a.min(b), a.max(b)], t as u32, k as u8));
         }
     }
     half.par_sort_unstable();
 
-    let mut edges = Vec::with_capacity(3 * n / 2 + 1);
-    let mut edge_mid = Vec::with_capacity(3 * n / 2 + 1);
-    let mut edge_cells = Vec::with_capacity(3 * n / 2 + 1);
-    let mut cell_edges = vec![[0u32; 3]; n];
-    let mut cell_edge_sign = vec![[0i8; 3]; n];
+    let mut edges = Vec::with_capacity(half.len() / 2 + 1);
+    let mut edge_mid = Vec::with_capacity(half.len() / 2 + 1);
+    let mut edge_cells = Vec::with_capacity(half.len() / 2 + 1);
+    let mut cell_edges = vec![[NONE; 4]; n];
+    let mut cell_edge_sign = vec![[0i8; 4]; n];
     let mut non_manifold = Vec::new();
     let mut non_conforming = Vec::new();
     let mut folded = Vec::new();
@@ -70,38 +80,75 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         }
         let e = edges.len() as u32;
         edges.push(half[i].0);
-        let mid_of = |h: &([u32; 2], u32, u8)| mesh.triangles[h.1 as usize][3 + h.2 as usize];
+        let mid_of = |h: &([u32; 2], u32, u8)| mid(h.1 as usize, h.2 as usize);
         edge_mid.push(mid_of(&half[i]));
         if j - i > 2 {
-            non_manifold.push(mesh.triangle_cell[half[i + 2].1 as usize] as usize);
+            non_manifold.push(half[i + 2].1 as usize);
         }
         if j - i == 2 && mid_of(&half[i]) != mid_of(&half[i + 1]) {
-            non_conforming.push(mesh.triangle_cell[half[i + 1].1 as usize] as usize);
+            non_conforming.push(half[i + 1].1 as usize);
         }
         // Counter-clockwise neighbours run a shared edge in opposite directions; the same
         // direction means both lie on one side of it: the cells overlap (a folded mesh).
         if j - i == 2 {
-            let dir = |h: &([u32; 2], u32, u8)| mesh.triangles[h.1 as usize][h.2 as usize];
+            let dir = |h: &([u32; 2], u32, u8)| vertex(h.1 as usize, h.2 as usize);
             if dir(&half[i]) == dir(&half[i + 1]) {
-                folded.push(mesh.triangle_cell[half[i].1 as usize] as usize);
-                folded.push(mesh.triangle_cell[half[i + 1].1 as usize] as usize);
+                folded.push(half[i].1 as usize);
+                folded.push(half[i + 1].1 as usize);
             }
         }
         edge_cells.push([half[i].1, if j - i >= 2 { half[i + 1].1 } else { NONE }]);
         for h in &half[i..j] {
             let (t, k) = (h.1 as usize, h.2 as usize);
             cell_edges[t][k] = e;
-            cell_edge_sign[t][k] = if mesh.triangles[t][k] == h.0[0] {
-                1
-            } else {
-                -1
-            };
+            cell_edge_sign[t][k] = if vertex(t, k) == h.0[0] { 1 } else { -1 };
         }
         i = j;
     }
+    let boundary_edges: Vec<u32> = (0..edges.len() as u32)
+        .filter(|&e| edge_cells[e as usize][1] == NONE)
+        .collect();
+    (
+        Topology {
+            edges,
+            edge_mid,
+            edge_cells,
+            cell_edges,
+            cell_edge_sign,
+            boundary_edges,
+            line_edge: Vec::new(),
+        },
+        [non_manifold, non_conforming, folded],
+    )
+}
+
+/// Builds the topology, or reports non-manifold edges, non-conforming P2 edges and line cells
+/// that are no edge of the mesh (with file cell indices).
+pub fn build(data: &Dataset) -> Result<Topology> {
+    let err = |problem: String| Error::input(&data.path, "Cells", problem);
+    let mesh: &Mesh = &data.mesh;
+    let noun = if mesh.has_quads() { "cells" } else { "triangles" };
+    let (topo, [non_manifold, non_conforming, mut folded]) = from_loops(
+        mesh.len(),
+        |t, k| mesh.cells[t][k],
+        |t| mesh.family[t].vertices(),
+        |t, k| mesh.edge(t, k)[2],
+    );
+    let file = |v: &[usize]| -> Vec<usize> { v.iter().map(|&t| mesh.file_cell[t] as usize).collect() };
+    let (non_manifold, non_conforming) = (file(&non_manifold), file(&non_conforming));
+    folded = file(&folded);
+    let Topology {
+        edges,
+        edge_mid,
+        edge_cells,
+        cell_edges,
+        cell_edge_sign,
+        boundary_edges,
+        ..
+    } = topo;
     if !non_manifold.is_empty() {
         return Err(err(format!(
-            "edges shared by more than two triangles (non-manifold mesh) at cells {} ({} in all)",
+            "edges shared by more than two {noun} (non-manifold mesh) at cells {} ({} in all)",
             list_indices(&non_manifold),
             non_manifold.len()
         )));
@@ -110,7 +157,7 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         folded.sort_unstable();
         folded.dedup();
         return Err(err(format!(
-            "inverted or overlapping triangles (neighbours on the same side of their shared \
+            "inverted or overlapping {noun} (neighbours on the same side of their shared \
              edge): cells {} ({} in all)",
             list_indices(&folded),
             folded.len()
@@ -118,16 +165,12 @@ pub fn build(data: &Dataset) -> Result<Topology> {
     }
     if !non_conforming.is_empty() {
         return Err(err(format!(
-            "neighbouring quadratic triangles with different mid-edge nodes (non-conforming) at \
+            "neighbouring quadratic {noun} with different mid-edge nodes (non-conforming) at \
              cells {} ({} in all)",
             list_indices(&non_conforming),
             non_conforming.len()
         )));
     }
-    let boundary_edges: Vec<u32> = (0..edges.len() as u32)
-        .filter(|&e| edge_cells[e as usize][1] == NONE)
-        .collect();
-
     // Line cells: each must be an edge of the mesh.
     let mut line_edge = Vec::with_capacity(mesh.lines.len());
     let mut dangling = Vec::new();
@@ -149,7 +192,8 @@ pub fn build(data: &Dataset) -> Result<Topology> {
     }
     if !dangling.is_empty() {
         return Err(err(format!(
-            "dangling line cells (not an edge of any triangle): cells {} ({} in all)",
+            "dangling line cells (not an edge of any {}): cells {} ({} in all)",
+            if mesh.has_quads() { "cell" } else { "triangle" },
             list_indices(&dangling),
             dangling.len()
         )));
@@ -217,10 +261,10 @@ mod tests {
         assert_eq!(t.boundary_edges, vec![0, 1, 3, 4]);
         // The diagonal (1, 2) is shared: cell 0 runs 1→2 (+1), cell 1 runs 2→1 (−1).
         assert_eq!(t.edge_cells[2], [0, 1]);
-        assert_eq!(t.cell_edges[0], [0, 2, 1]);
-        assert_eq!(t.cell_edge_sign[0], [1, 1, -1]);
-        assert_eq!(t.cell_edges[1], [3, 4, 2]);
-        assert_eq!(t.cell_edge_sign[1], [1, -1, -1]);
+        assert_eq!(t.cell_edges[0][..3], [0, 2, 1]);
+        assert_eq!(t.cell_edge_sign[0][..3], [1, 1, -1]);
+        assert_eq!(t.cell_edges[1][..3], [3, 4, 2]);
+        assert_eq!(t.cell_edge_sign[1][..3], [1, -1, -1]);
         assert_eq!(t.line_edge, vec![0, 2]);
         assert_eq!(interior_lines(&d, &t), vec![3]);
         // Every edge's cells list it with opposite signs when shared.

@@ -156,11 +156,39 @@ fn inverted_and_degenerate_cells() {
 
 #[test]
 fn unknown_cell_type() {
-    let f = square(&[(5, vec![0, 1, 2]), (9, vec![0, 1, 3, 2])]);
+    let f = square(&[(5, vec![0, 1, 2]), (7, vec![0, 1, 3, 2])]);
     assert_eq!(
-        refused("quad.vtu", &to_bytes(&f, Placement::AppendedRaw)),
-        "Cells array \"types\": cell 1 has unsupported VTK cell type 9 (quad); fosls reads \
-         vertices (1), lines (3), triangles (5), quadratic edges (21) and quadratic triangles (22)"
+        refused("polygon.vtu", &to_bytes(&f, Placement::AppendedRaw)),
+        "cell 1: has unsupported VTK cell type 7 (VTK_POLYGON); fosls reads vertices, lines, \
+         triangles and quadrilaterals, linear, quadratic and Lagrange of order 1 and 2 (VTK 1, \
+         3, 5, 9, 21, 22, 23, 28, 68, 69, 70)"
+    );
+}
+
+#[test]
+fn three_d_cells_are_refused_by_their_vtk_name() {
+    for (t, name, nodes) in [
+        (10u8, "VTK_TETRA", vec![0, 1, 2, 3]),
+        (71, "VTK_LAGRANGE_TETRAHEDRON", vec![0, 1, 2, 3]),
+        (72, "VTK_LAGRANGE_HEXAHEDRON", vec![0, 1, 2, 3, 0, 1, 2, 3]),
+    ] {
+        let f = square(&[(5, vec![0, 1, 2]), (t, nodes)]);
+        assert_eq!(
+            refused("solid.vtu", &to_bytes(&f, Placement::AppendedRaw)),
+            format!(
+                "cell 1: 3D cells are not supported yet ({name}, VTK type {t}); fosls reads 2D \
+                 meshes of triangles and quadrilaterals"
+            )
+        );
+    }
+}
+
+#[test]
+fn lagrange_cells_of_order_three_are_refused() {
+    let f = square(&[(69, vec![0, 1, 2, 0, 1, 2, 0, 1, 2, 3])]);
+    assert_eq!(
+        refused("p3.vtu", &to_bytes(&f, Placement::AppendedRaw)),
+        "cell 0: is a VTK_LAGRANGE_TRIANGLE of order 3; fosls reads Lagrange cells of order 1 and 2"
     );
 }
 

@@ -46,12 +46,12 @@ fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
 fn compare(name: &str, got: &Dataset, want: &Dataset, tol: &dyn Fn(&str) -> f64) {
     assert_eq!(got.mesh.degree, want.mesh.degree, "{name}");
     assert_eq!(
-        got.mesh.triangles.len(),
-        want.mesh.triangles.len(),
+        got.mesh.cells.len(),
+        want.mesh.cells.len(),
         "{name}"
     );
     let gather = |d: &Dataset, f: &dyn Fn(usize) -> Vec<f64>| -> Vec<f64> {
-        (0..d.mesh.triangles.len())
+        (0..d.mesh.cells.len())
             .flat_map(|t| {
                 d.mesh
                     .nodes(t)
@@ -77,8 +77,8 @@ fn compare(name: &str, got: &Dataset, want: &Dataset, tol: &dyn Fn(&str) -> f64)
         let key = format!("point_data/{}", w.name);
         check(name, &key, &vals(got, g), &vals(want, w), tol(&key));
     }
-    for w in &want.triangle_data {
-        let Some(g) = got.triangle_data.iter().find(|a| a.name == w.name) else {
+    for w in &want.cell_data {
+        let Some(g) = got.cell_data.iter().find(|a| a.name == w.name) else {
             continue;
         };
         let key = format!("cell_data/{}", w.name);

@@ -76,14 +76,21 @@ fn add_reconstructed(
     let ncells = file.cell_count();
     if let Some(r) = stress {
         let mut values = vec![0.0; 9 * ncells];
-        for t in 0..data.mesh.triangles.len() {
+        for t in 0..data.mesh.cells.len() {
+            let fam = data.mesh.family[t];
             let x = data.mesh.coords(t);
-            // The centroid value is the cell average for the affine part of the field.
-            let jac = fosls::element::map::Jacobian::new([
-                [x[1][0] - x[0][0], x[2][0] - x[0][0]],
-                [x[1][1] - x[0][1], x[2][1] - x[0][1]],
-            ]);
-            let (s, _) = r.stress.at(t, &jac, [1.0 / 3.0, 1.0 / 3.0]);
+            // The mean of the sub-triangles' centroid values: the cell average for the affine
+            // part of the field on affine cells.
+            let subs = r.stress.subs(&data.mesh, t);
+            let mut s = [0.0; 4];
+            for k in 0..subs {
+                let c = [1.0 / 3.0, 1.0 / 3.0];
+                let js = fosls::geometry::values::sub_point(fam, &x, k, c).jac;
+                let (v, _) = r.stress.at(r.stress.first[t] as usize + k, &js, c);
+                for m in 0..4 {
+                    s[m] += v[m] / subs as f64;
+                }
+            }
             values[9 * t..9 * t + 9].copy_from_slice(&report::vtu::tensor9(s));
         }
         file.cell_data
@@ -316,7 +323,6 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             let bar = stage(args.quiet, "reconstructing the stress");
             let r = reconstruct::stress::reconstruct(&reconstruct::stress::Input {
                 mesh: &data.mesh,
-                topo: &topo,
                 scene: &scene,
                 u,
                 edges: &boundaries.edges,

@@ -67,8 +67,8 @@
 
 use std::sync::OnceLock;
 
-use super::edge::edge_reference_point;
-use super::map::{CellMap, Jacobian};
+use crate::geometry::edge::edge_reference_point;
+use crate::geometry::map::{CellMap, Jacobian};
 use crate::quadrature::triangle_rule_cached;
 
 /// Number of RT_0 functions (one per edge).
@@ -452,8 +452,8 @@ pub fn local_to_global_edge(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::edge::{EDGE_NODES, REFERENCE_NORMALS};
-    use crate::element::map::{LinearTriangle, QuadraticTriangle};
+    use crate::geometry::edge::{EDGE_NODES, REFERENCE_NORMALS};
+    use crate::geometry::map::{LinearTriangle, QuadraticTriangle};
     use crate::quadrature::{line_rule, triangle_rule};
 
     const ORDERS: [RtOrder; 2] = [RtOrder::Rt0, RtOrder::Rt1];

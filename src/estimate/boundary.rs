@@ -20,9 +20,10 @@
 //! stress away from the contact from counting as contact.
 
 use super::{Admissibility, Contact, ContactInterval, ContactState, Violation};
-use crate::element::edge::{edge_reference_point, outward_normal};
-use crate::element::lagrange::{shape_gradients, shape_values};
 use crate::expr::Expr;
+use crate::field::{RtStress, StressField};
+use crate::geometry::{Family, MAX_NODES, facet_point};
+use crate::tolerance::{EDGE_DEGREE, EDGE_SAMPLES, GAP_RELATIVE, STATE_RELATIVE};
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition};
 use crate::quadrature::line_rule_cached;
@@ -32,7 +33,7 @@ use crate::read::scene::{BoundaryKind, Contact as ContactSpec, Scene};
 pub struct Input<'a> {
     pub mesh: &'a Mesh,
     pub u: &'a [[f64; 2]],
-    pub sigma: super::StressField<'a>,
+    pub sigma: StressField<'a>,
     pub scene: &'a Scene,
     /// Every boundary edge with its condition.
     pub edges: &'a [BoundaryEdge],
@@ -47,32 +48,17 @@ pub struct Boundary {
     pub contact: Contact,
 }
 
-/// Relative size below which σ_n (or 𝔉|σ_n| − |σ_t|) counts as zero when classifying the
-/// contact state, relative to the largest |σ_n| on Γ_C: round-off must not make zones.
-pub const STATE_TOLERANCE: f64 = 1e-10;
-
-/// Relative size (of max |u_h| on Γ_C) below which an open gap counts as closed when
-/// classifying the contact state: looser than [`STATE_TOLERANCE`] because P2 displacements
-/// constrained at the nodes only (active-set solvers, projections) leave gaps of that order
-/// between the nodes of curved contact edges.
-pub const GAP_TOLERANCE: f64 = 1e-6;
-
-/// Gauss–Legendre degree per piece (20 points): exact for the degree-≤ 8 polynomial integrands
-/// of P2 data with a wide margin for curved edges and gap expressions (boundary edges are few).
-const PIECE_DEGREE: usize = 39;
-
-/// Uniform samples per edge for bracketing zeros and maxima.
-const SAMPLES: usize = 32;
-
-/// Fields of one triangle, evaluated along one of its edges.
+/// Fields of one cell, evaluated along one of its edges.
 struct EdgeFields<'a> {
+    mesh: &'a Mesh,
     cell: usize,
-    rt: Option<&'a crate::reconstruct::stress::RtStress>,
-    x: [[f64; 2]; 6],
-    u: [[f64; 2]; 6],
-    s: [[f64; 4]; 6],
-    n: usize,
+    rt: Option<&'a RtStress>,
+    family: Family,
+    x: [[f64; 2]; MAX_NODES],
+    u: [[f64; 2]; MAX_NODES],
+    s: [[f64; 4]; MAX_NODES],
     local: usize,
+    /// Affine cell: the traces are polynomials of degree ≤ 2 in the edge parameter.
     straight: bool,
 }
 
@@ -94,21 +80,22 @@ impl<'a> EdgeFields<'a> {
         let t = e.cell as usize;
         let nodes = inp.mesh.nodes(t);
         let mut f = EdgeFields {
+            mesh: inp.mesh,
             cell: t,
             rt: match inp.sigma {
-                super::StressField::Rt(rt) => Some(rt),
-                super::StressField::Nodal(_) => None,
+                StressField::Rt(rt) => Some(rt),
+                StressField::Nodal(_) => None,
             },
+            family: inp.mesh.family[t],
             x: inp.mesh.coords(t),
-            u: [[0.0; 2]; 6],
-            s: [[0.0; 4]; 6],
-            n: nodes.len(),
+            u: [[0.0; 2]; MAX_NODES],
+            s: [[0.0; 4]; MAX_NODES],
             local: e.local as usize,
-            straight: !super::interior::is_curved(inp.mesh, t),
+            straight: inp.mesh.is_affine(t),
         };
         for (k, &p) in nodes.iter().enumerate() {
             f.u[k] = inp.u[p as usize];
-            if let super::StressField::Nodal(sv) = inp.sigma {
+            if let StressField::Nodal(sv) = inp.sigma {
                 f.s[k] = sv[p as usize];
             }
         }
@@ -118,46 +105,26 @@ impl<'a> EdgeFields<'a> {
     /// Values at parameter s ∈ [0, 1] (from the edge's start vertex to its end vertex,
     /// counter-clockwise around the cell).
     fn at(&self, s: f64) -> At {
-        let xi = edge_reference_point(self.local, s);
-        let (phi, g) = (shape_values(self.n, xi), shape_gradients(self.n, xi));
-        // dξ/ds on local edges 0: (s, 0), 1: (1 − s, s), 2: (0, 1 − s).
-        let dxi: [f64; 2] = match self.local {
-            0 => [1.0, 0.0],
-            1 => [-1.0, 1.0],
-            _ => [0.0, -1.0],
-        };
-        let mut a = At {
-            x: [0.0; 2],
-            ds: 0.0,
-            normal: [0.0; 2],
-            u: [0.0; 2],
-            sigma: [0.0; 4],
-        };
-        let mut tangent = [0.0; 2];
-        let mut jm = [[0.0; 2]; 2];
-        let x0 = self.x[0];
-        for k in 0..self.n {
-            let d = [self.x[k][0] - x0[0], self.x[k][1] - x0[1]];
-            let dphi = g[k][0] * dxi[0] + g[k][1] * dxi[1];
-            for c in 0..2 {
-                a.x[c] += d[c] * phi[k];
-                tangent[c] += d[c] * dphi;
-                a.u[c] += self.u[k][c] * phi[k];
-                jm[c][0] += d[c] * g[k][0];
-                jm[c][1] += d[c] * g[k][1];
-            }
-            for m in 0..4 {
-                a.sigma[m] += self.s[k][m] * phi[k];
+        let n = self.family.nodes();
+        let fp = facet_point(self.family, &self.x[..n], self.local, s);
+        let mut sigma = [0.0; 4];
+        match self.rt {
+            Some(rt) => sigma = rt.at_parent(self.mesh, self.cell, &fp.jac, fp.xi).0,
+            None => {
+                for k in 0..n {
+                    for m in 0..4 {
+                        sigma[m] += self.s[k][m] * fp.phi[k];
+                    }
+                }
             }
         }
-        if let Some(rt) = self.rt {
-            let jac = crate::element::map::Jacobian::new(jm);
-            a.sigma = rt.at(self.cell, &jac, xi).0;
+        At {
+            x: fp.x,
+            ds: fp.ds,
+            normal: fp.normal,
+            u: fp.value2(n, &self.u),
+            sigma,
         }
-        a.x = [a.x[0] + x0[0], a.x[1] + x0[1]];
-        a.ds = tangent[0].hypot(tangent[1]);
-        a.normal = outward_normal(tangent);
-        a
     }
 }
 
@@ -236,16 +203,16 @@ fn zeros(h: impl Fn(f64) -> f64, quadratic: bool) -> Vec<f64> {
         }
         out.retain(|&s| s > 0.0 && s < 1.0);
     } else {
-        let v: Vec<f64> = (0..=SAMPLES)
-            .map(|i| h(i as f64 / SAMPLES as f64))
+        let v: Vec<f64> = (0..=EDGE_SAMPLES)
+            .map(|i| h(i as f64 / EDGE_SAMPLES as f64))
             .collect();
-        for i in 0..SAMPLES {
-            let (mut lo, mut hi) = (i as f64 / SAMPLES as f64, (i + 1) as f64 / SAMPLES as f64);
+        for i in 0..EDGE_SAMPLES {
+            let (mut lo, mut hi) = (i as f64 / EDGE_SAMPLES as f64, (i + 1) as f64 / EDGE_SAMPLES as f64);
             let (vl, vh) = (v[i], v[i + 1]);
             if !(vl.is_finite() && vh.is_finite()) {
                 continue;
             }
-            if vh == 0.0 && i + 1 < SAMPLES {
+            if vh == 0.0 && i + 1 < EDGE_SAMPLES {
                 out.push(hi);
             } else if vl * vh < 0.0 {
                 let up = vh > 0.0;
@@ -268,14 +235,14 @@ fn zeros(h: impl Fn(f64) -> f64, quadratic: bool) -> Vec<f64> {
 /// the best one (the maxima of the smooth pieces are found to round-off).
 fn maximum(h: impl Fn(f64) -> f64) -> (f64, f64) {
     let mut best = (f64::NEG_INFINITY, 0.0);
-    for i in 0..=SAMPLES {
-        let s = i as f64 / SAMPLES as f64;
+    for i in 0..=EDGE_SAMPLES {
+        let s = i as f64 / EDGE_SAMPLES as f64;
         let v = h(s);
         if v > best.0 {
             best = (v, s);
         }
     }
-    let step = 1.0 / SAMPLES as f64;
+    let step = 1.0 / EDGE_SAMPLES as f64;
     let (mut a, mut b) = ((best.1 - step).max(0.0), (best.1 + step).min(1.0));
     let r = 0.5 * (5f64.sqrt() - 1.0);
     let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
@@ -340,7 +307,7 @@ struct Piece {
 
 /// Evaluates the boundary terms, the admissibility checks and the contact zone.
 pub fn boundary(inp: &Input) -> Boundary {
-    let ncells = inp.mesh.triangles.len();
+    let ncells = inp.mesh.cells.len();
     let mut out = Boundary {
         complementarity: vec![0.0; ncells],
         friction: vec![0.0; ncells],
@@ -350,7 +317,7 @@ pub fn boundary(inp: &Input) -> Boundary {
             ..Contact::default()
         },
     };
-    let rule = line_rule_cached(PIECE_DEGREE);
+    let rule = line_rule_cached(EDGE_DEGREE);
     let (mut pen, mut ten, mut cone) = (Acc::default(), Acc::default(), Acc::default());
     let (mut dir, mut neu) = (Acc::default(), Acc::default());
 
@@ -368,8 +335,8 @@ pub fn boundary(inp: &Input) -> Boundary {
             }
         }
     }
-    let tol = STATE_TOLERANCE * sn_scale;
-    let tol_gap = GAP_TOLERANCE * u_scale;
+    let tol = STATE_RELATIVE * sn_scale;
+    let tol_gap = GAP_RELATIVE * u_scale;
 
     // Pieces of each contact boundary, per edge, for the intervals.
     let mut pieces: Vec<(usize, usize, Vec<Piece>)> = Vec::new(); // (boundary, edge index, pieces)
@@ -469,7 +436,7 @@ pub fn boundary(inp: &Input) -> Boundary {
                 ] {
                     let (v, s) = maximum(&h);
                     if v.is_finite() {
-                        acc.offer(v, f.at(s).x, inp.mesh.triangle_cell[t] as usize);
+                        acc.offer(v, f.at(s).x, inp.mesh.file_cell[t] as usize);
                     }
                 }
 
@@ -519,7 +486,7 @@ pub fn boundary(inp: &Input) -> Boundary {
                     &mut dir,
                     rule,
                     &mismatch,
-                    inp.mesh.triangle_cell[t] as usize,
+                    inp.mesh.file_cell[t] as usize,
                 );
             }
             Condition::Neumann(_) | Condition::Free => {
@@ -540,7 +507,7 @@ pub fn boundary(inp: &Input) -> Boundary {
                     &mut neu,
                     rule,
                     &mismatch,
-                    inp.mesh.triangle_cell[t] as usize,
+                    inp.mesh.file_cell[t] as usize,
                 );
             }
         }
@@ -593,9 +560,8 @@ fn intervals(inp: &Input, pieces: &[(usize, usize, Vec<Piece>)]) -> Vec<ContactI
         let mine: Vec<&(usize, usize, Vec<Piece>)> = pieces.iter().filter(|p| p.0 == b).collect();
         let ends = |p: &(usize, usize, Vec<Piece>)| {
             let e = &inp.edges[p.1];
-            let tri = inp.mesh.triangles[e.cell as usize];
-            let k = e.local as usize;
-            (tri[k], tri[(k + 1) % 3])
+            let [a, b, _] = inp.mesh.edge(e.cell as usize, e.local as usize);
+            (a, b)
         };
         let starts: std::collections::HashMap<u32, usize> = mine
             .iter()

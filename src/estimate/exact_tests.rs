@@ -150,7 +150,7 @@ fn exact(nu: f64, norm: Norm, perturb: impl Fn([f64; 2]) -> [f64; 4]) -> (Estima
     let d = rectangle(4, 3);
     let t = topology::build(&d).unwrap();
     let material = scene(nu, "seed", [0.0; 2]).material;
-    let el = material::Elastic::new(&material);
+    let el = crate::material::Elastic::new(&material);
     let div_free = nu == 0.5;
     let mut u = Vec::new();
     let mut sigma = Vec::new();

@@ -136,47 +136,14 @@ pub struct Estimate {
 
 pub mod boundary;
 pub mod interior;
-pub mod material;
+
 
 use crate::mesh::Mesh;
 use crate::problem::BoundaryEdge;
 use crate::read::scene::Scene;
 
-/// Relative size below which a violation counts as round-off (of max |u_h| for displacement
-/// checks, of max |σ_h| for stress checks) when deciding whether a hypothesis holds.
-pub const ADMISSIBLE_TOLERANCE: f64 = 1e-10;
-
-/// A stress the functional can be evaluated for (DESIGN.md §4).
-#[derive(Clone, Copy, Debug)]
-pub enum StressField<'a> {
-    /// Continuous nodal values per mesh point, row-major `[xx, xy, yx, yy]`.
-    Nodal(&'a [[f64; 4]]),
-    /// Row-wise Raviart–Thomas (a reconstruction).
-    Rt(&'a crate::reconstruct::stress::RtStress),
-}
-
-impl StressField<'_> {
-    /// The largest stress component magnitude (at nodes, or at cell centroids for RT), the
-    /// scale of the stress admissibility tolerances.
-    pub fn scale(&self, mesh: &Mesh) -> f64 {
-        match self {
-            StressField::Nodal(s) => s
-                .iter()
-                .fold(0.0f64, |m, v| v.iter().fold(m, |m, x| m.max(x.abs()))),
-            StressField::Rt(rt) => (0..mesh.triangles.len())
-                .map(|t| {
-                    let x = mesh.coords(t);
-                    let jac = crate::element::map::Jacobian::new([
-                        [x[1][0] - x[0][0], x[2][0] - x[0][0]],
-                        [x[1][1] - x[0][1], x[2][1] - x[0][1]],
-                    ]);
-                    let (s, _) = rt.at(t, &jac, [1.0 / 3.0, 1.0 / 3.0]);
-                    s.iter().fold(0.0f64, |m, v| m.max(v.abs()))
-                })
-                .fold(0.0f64, f64::max),
-        }
-    }
-}
+pub use crate::field::StressField;
+pub use crate::tolerance::ADMISSIBLE_RELATIVE as ADMISSIBLE_TOLERANCE;
 
 /// What [`run`] needs.
 pub struct Input<'a> {
@@ -194,7 +161,7 @@ pub struct Input<'a> {
 
 /// Evaluates F and everything around it (DESIGN.md §3, §5, §6).
 pub fn run(inp: &Input) -> Estimate {
-    let elastic = material::Elastic::new(&inp.scene.material);
+    let elastic = crate::material::Elastic::new(&inp.scene.material);
     let length_scale = inp
         .scene
         .estimate

@@ -19,51 +19,7 @@ use super::decode::{self, Compressor, Layout, Scalar};
 use crate::error::{Error, Result};
 use crate::limits::Budget;
 
-/// VTK cell type numbers that fosls reads.
-pub mod cell_type {
-    pub const VERTEX: u8 = 1;
-    pub const LINE: u8 = 3;
-    pub const TRIANGLE: u8 = 5;
-    pub const QUADRATIC_EDGE: u8 = 21;
-    pub const QUADRATIC_TRIANGLE: u8 = 22;
-
-    /// Nodes per cell of a supported type, `None` for any other type.
-    pub fn nodes(t: u8) -> Option<usize> {
-        match t {
-            VERTEX => Some(1),
-            LINE => Some(2),
-            TRIANGLE | QUADRATIC_EDGE => Some(3),
-            QUADRATIC_TRIANGLE => Some(6),
-            _ => None,
-        }
-    }
-
-    /// The VTK name of a cell type, for messages.
-    pub fn name(t: u8) -> &'static str {
-        match t {
-            1 => "vertex",
-            2 => "poly-vertex",
-            3 => "line",
-            4 => "poly-line",
-            5 => "triangle",
-            6 => "triangle strip",
-            7 => "polygon",
-            8 => "pixel",
-            9 => "quad",
-            10 => "tetra",
-            11 => "voxel",
-            12 => "hexahedron",
-            13 => "wedge",
-            14 => "pyramid",
-            21 => "quadratic edge",
-            22 => "quadratic triangle",
-            23 => "quadratic quad",
-            24 => "quadratic tetra",
-            25 => "quadratic hexahedron",
-            _ => "unknown",
-        }
-    }
-}
+pub use super::cell_type;
 
 /// One named point or cell array, values converted to `f64` (exact for every type except
 /// 64-bit integers beyond 2^53, which no field or tag needs).
@@ -950,26 +906,33 @@ fn assemble(
                 let t = types[c];
                 let cell = file.types.len();
                 let kind = u8::try_from(t).ok();
-                let Some(nodes) = kind.and_then(cell_type::nodes) else {
+                let known = kind.map(cell_type::fixed_nodes);
+                if known.is_none() || known == Some(Some(0)) {
                     return Err(err(
                         &tplace,
                         format!(
                             "cell {cell} has unsupported VTK cell type {t} ({}); fosls reads \
-                             vertices (1), lines (3), triangles (5), quadratic edges (21) and \
-                             quadratic triangles (22)",
+                             vertices (1), lines (3), triangles (5), quads (9), quadratic edges \
+                             (21), triangles (22) and quads (23, 28), and Lagrange curves, \
+                             triangles and quadrilaterals (68, 69, 70)",
                             cell_type::name(u8::try_from(t).unwrap_or(0))
                         ),
                     ));
-                };
-                if (o - prev) as usize != nodes {
+                }
+                let count = (o - prev) as usize;
+                if let Some(nodes) = known.flatten()
+                    && count != nodes
+                {
                     return Err(err(
                         &oplace,
                         format!(
-                            "cell {cell} ({}) has {} nodes, expected {nodes}",
+                            "cell {cell} ({}) has {count} nodes, expected {nodes}",
                             cell_type::name(t as u8),
-                            o - prev
                         ),
                     ));
+                }
+                if count == 0 {
+                    return Err(err(&oplace, format!("cell {cell} has no nodes")));
                 }
                 file.types.push(t as u8);
                 file.offsets.push(conn_base + o as usize);
@@ -1115,11 +1078,12 @@ mod tests {
 
     #[test]
     fn unknown_cell_type_is_named() {
-        let bad = ASCII.replace(">5 5 3<", ">5 9 3<");
+        let bad = ASCII.replace(">5 5 3<", ">5 20 3<");
         let e = parse(&bad).unwrap_err().to_string();
         assert!(
             e.starts_with(
-                "t.vtu: Cells array \"types\": cell 1 has unsupported VTK cell type 9 (quad)"
+                "t.vtu: Cells array \"types\": cell 1 has unsupported VTK cell type 20 \
+                 (unknown VTK cell type)"
             ),
             "{e}"
         );

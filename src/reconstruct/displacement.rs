@@ -13,15 +13,13 @@
 //! (μ/ℓ² times the lumped mass) then makes the projection unique.
 
 use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
-use super::stress::edge_point;
-use crate::element::lagrange::{jacobian, shape_gradients, shape_values};
-use crate::element::map::Jacobian;
-use crate::estimate::StressField;
-use crate::estimate::interior::{CURVED_DEGREE, is_curved};
-use crate::estimate::material::Elastic;
+use crate::field::StressField;
+use crate::geometry::values::{interior_table, rule_degree};
+use crate::geometry::{CellValues, Family, Jacobian, MAX_NODES, Shape, Table, facet_point, table};
+use crate::material::Elastic;
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition};
-use crate::quadrature::{line_rule_cached, triangle_rule_cached};
+use crate::quadrature::line_rule_cached;
 use crate::read::scene::{BoundaryKind, Norm, Scene};
 use crate::topology::Topology;
 
@@ -82,12 +80,8 @@ fn boundary_nodes(
         let nodes = [a, b, mid];
         let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
         // Outward normal of the chord (the owner runs local edge counter-clockwise).
-        let tri = mesh.triangles[be.cell as usize];
-        let l = be.local as usize;
-        let (s, e) = (
-            mesh.points[tri[l] as usize],
-            mesh.points[tri[(l + 1) % 3] as usize],
-        );
+        let [ea, eb, _] = mesh.edge(be.cell as usize, be.local as usize);
+        let (s, e) = (mesh.points[ea as usize], mesh.points[eb as usize]);
         let t = [e[0] - s[0], e[1] - s[1]];
         let len = t[0].hypot(t[1]);
         let n_out = [t[1] / len, -t[0] / len];
@@ -139,22 +133,24 @@ fn stiffness(mesh: &Mesh, a: f64, b: f64) -> (Vec<(usize, usize, f64)>, Vec<f64>
     let np = mesh.points.len();
     let mut entries: Vec<(usize, usize, f64)> = Vec::new();
     let mut lumped = vec![0.0; np];
-    let straight = triangle_rule_cached(if mesh.degree == 2 { 2 } else { 0 });
-    let curved = triangle_rule_cached(CURVED_DEGREE);
-    for t in 0..mesh.triangles.len() {
+    let mut tables = CellTables::new(|f, sh| {
+        let p = f.degree();
+        let deg = if f.is_quad() { 2 * p } else { 2 * (p - 1) };
+        table(f, rule_degree(sh, deg), false)
+    });
+    for t in 0..mesh.len() {
         let nodes = mesh.nodes(t);
         let nn = nodes.len();
         let x = mesh.coords(t);
-        let rule = if is_curved(mesh, t) { curved } else { straight };
+        let cv = tables.get(mesh, t);
+        cv.reinit(&x[..nn], mesh.is_affine(t));
         let mut k = vec![0.0; 4 * nn * nn];
-        for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
-            let g = shape_gradients(nn, xi);
-            let jac = jacobian(&x, nn, &g);
-            let wd = w * jac.det;
+        for q in 0..cv.len() {
+            let wd = cv.jxw[q];
             for p in 0..nn {
                 lumped[nodes[p] as usize] += wd / nn as f64;
             }
-            let gp: Vec<[f64; 2]> = (0..nn).map(|i| jac.physical_gradient(g[i])).collect();
+            let gp = &cv.grad[q];
             // ε of the basis function (node i, component c): sym(e_c ⊗ ∇φ_i).
             for i in 0..nn {
                 for c in 0..2 {
@@ -673,15 +669,21 @@ fn remedy(
     count
 }
 
-/// σ (row-major) at reference point `xi` of cell `t` with map Jacobian `jac`.
-fn stress_at(mesh: &Mesh, sigma: StressField, t: usize, jac: &Jacobian, xi: [f64; 2]) -> [f64; 4] {
+/// σ (row-major) at parent reference point `xi` of cell `t` with map Jacobian `jac` and
+/// shape values `phi` there.
+fn stress_at(
+    mesh: &Mesh,
+    sigma: StressField,
+    t: usize,
+    jac: &Jacobian,
+    xi: [f64; 2],
+    phi: &[f64; MAX_NODES],
+) -> [f64; 4] {
     match sigma {
-        StressField::Rt(rt) => rt.at(t, jac, xi).0,
+        StressField::Rt(rt) => rt.at_parent(mesh, t, jac, xi).0,
         StressField::Nodal(values) => {
-            let nodes = mesh.nodes(t);
-            let phi = shape_values(nodes.len(), xi);
             let mut s = [0.0; 4];
-            for (k, &p) in nodes.iter().enumerate() {
+            for (k, &p) in mesh.nodes(t).iter().enumerate() {
                 for m in 0..4 {
                     s[m] += phi[k] * values[p as usize][m];
                 }
@@ -691,27 +693,62 @@ fn stress_at(mesh: &Mesh, sigma: StressField, t: usize, jac: &Jacobian, xi: [f64
     }
 }
 
-/// f_j = 2∫B(Aσ_h, ε(φ_j)) with 2B(x, y) = a x:y + b tr x tr y; quadrature exact for
-/// straight cells (degree 2k for a degree-k stress and mesh).
+/// One [`CellValues`] per (family, shape) met, made on first use by `make`.
+struct CellTables<F: Fn(Family, Shape) -> &'static Table> {
+    make: F,
+    values: Vec<(Family, Shape, CellValues)>,
+}
+
+impl<F: Fn(Family, Shape) -> &'static Table> CellTables<F> {
+    fn new(make: F) -> Self {
+        CellTables {
+            make,
+            values: Vec::new(),
+        }
+    }
+
+    fn get(&mut self, mesh: &Mesh, t: usize) -> &mut CellValues {
+        let (f, sh) = (mesh.family[t], mesh.shape[t]);
+        let i = match self.values.iter().position(|c| c.0 == f && c.1 == sh) {
+            Some(i) => i,
+            None => {
+                self.values.push((f, sh, CellValues::new((self.make)(f, sh))));
+                self.values.len() - 1
+            }
+        };
+        &mut self.values[i].2
+    }
+}
+
+/// f_j = 2∫B(Aσ_h, ε(φ_j)) with 2B(x, y) = a x:y + b tr x tr y; quadrature of the interior
+/// terms ([`interior_table`]): exact on affine cells.
 fn volume_load(mesh: &Mesh, sigma: StressField, el: &Elastic, a: f64, b: f64) -> Vec<f64> {
     let mut f = vec![0.0; 2 * mesh.points.len()];
-    let straight = triangle_rule_cached(2 * mesh.degree);
-    let curved = triangle_rule_cached(CURVED_DEGREE);
-    for t in 0..mesh.triangles.len() {
+    let rt = match sigma {
+        StressField::Rt(r) => Some(r.order.k()),
+        StressField::Nodal(_) => None,
+    };
+    let mut tables = CellTables::new(|fam, sh| interior_table(fam, sh, rt, true));
+    for t in 0..mesh.len() {
         let nodes = mesh.nodes(t);
         let nn = nodes.len();
         let x = mesh.coords(t);
-        let rule = if is_curved(mesh, t) { curved } else { straight };
-        for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
-            let g = shape_gradients(nn, xi);
-            let jac = jacobian(&x, nn, &g);
-            let wd = w * jac.det;
-            let e = el.compliance(stress_at(mesh, sigma, t, &jac, xi));
+        let mut sn = [[0.0; 4]; MAX_NODES];
+        if let StressField::Nodal(v) = sigma {
+            for (k, &p) in nodes.iter().enumerate() {
+                sn[k] = v[p as usize];
+            }
+        }
+        let cv = tables.get(mesh, t);
+        cv.reinit(&x[..nn], mesh.is_affine(t));
+        for q in 0..cv.len() {
+            let wd = cv.jxw[q];
+            let e = el.compliance(sigma.at_point(cv, t, q, &sn).0);
             // a e:ε + b tr e tr ε with ε = sym(e_c ⊗ ∇φ) and e symmetrised (ε is symmetric).
             let exy = 0.5 * (e[1] + e[2]);
             let tr = e[0] + e[3];
             for (i, &p) in nodes.iter().enumerate() {
-                let gp = jac.physical_gradient(g[i]);
+                let gp = cv.grad[q][i];
                 for c in 0..2 {
                     let s = strain(c, gp);
                     let dd = e[0] * s[0] + 2.0 * exy * s[1] + e[3] * s[2];
@@ -748,9 +785,9 @@ fn contact_load(
         let nn = nodes.len();
         let x = mesh.coords(t);
         for (&s, &w) in rule.points.iter().zip(&rule.weights) {
-            let (_, normal, len, xi) = edge_point(&x, nn, l, s);
-            let jac = jacobian(&x, nn, &shape_gradients(nn, xi));
-            let sig = stress_at(mesh, inp.sigma, t, &jac, xi);
+            let fp = facet_point(mesh.family[t], &x[..nn], l, s);
+            let (normal, len) = (fp.normal, fp.ds);
+            let sig = stress_at(mesh, inp.sigma, t, &fp.jac, fp.xi, &fp.phi);
             let tr = [
                 sig[0] * normal[0] + sig[1] * normal[1],
                 sig[2] * normal[0] + sig[3] * normal[1],
@@ -759,7 +796,7 @@ fn contact_load(
             let tt = [-n[1], n[0]];
             let sn = n[0] * tr[0] + n[1] * tr[1];
             let st = tt[0] * tr[0] + tt[1] * tr[1];
-            let phi = shape_values(nn, xi);
+            let phi = fp.phi;
             let wl = w * len;
             for (k, &p) in nodes.iter().enumerate() {
                 let p = p as usize;
@@ -784,7 +821,7 @@ fn contact_load(
 
 /// Gauss–Legendre degree on contact edges: the P2 × P2 × (curved) length-element integrands
 /// with a margin; |σ_n| is smooth for σ_n of one sign.
-const EDGE_DEGREE: usize = 19;
+const EDGE_DEGREE: usize = crate::tolerance::EDGE_DEGREE_NODAL;
 
 #[cfg(test)]
 mod tests {

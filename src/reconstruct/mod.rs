@@ -7,3 +7,4 @@ pub mod condition;
 pub mod displacement;
 pub mod solve;
 pub mod stress;
+pub mod submesh;

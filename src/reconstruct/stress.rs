@@ -21,49 +21,20 @@
 //! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
 
 use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
-use crate::element::edge::edge_reference_point;
-use crate::element::lagrange::{jacobian, shape_gradients, shape_values};
-use crate::element::map::Jacobian;
+use super::submesh::SubMesh;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
-use crate::estimate::interior::is_curved;
-use crate::estimate::material::Elastic;
+pub use crate::field::RtStress;
+use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
+use crate::material::Elastic;
 use crate::mesh::Mesh;
 use crate::problem::{BoundaryEdge, Condition};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::{BoundaryKind, Norm, Scene};
-use crate::topology::Topology;
-
-/// A row-wise RT_k stress: per triangle and row, the coefficients of the cell's local basis.
-#[derive(Clone, Debug)]
-pub struct RtStress {
-    pub order: RtOrder,
-    pub coefficients: Vec<[[f64; MAX_RT_DOFS]; 2]>,
-}
-
-impl RtStress {
-    /// σ (row-major `[xx, xy, yx, yy]`) and div σ at reference point `xi` of triangle `t`,
-    /// whose map has Jacobian `jac` there.
-    #[inline]
-    pub fn at(&self, t: usize, jac: &Jacobian, xi: [f64; 2]) -> ([f64; 4], [f64; 2]) {
-        let (v, d) = rt::piola(self.order, jac, xi);
-        let c = &self.coefficients[t];
-        let mut s = [0.0; 4];
-        let mut div = [0.0; 2];
-        for i in 0..self.order.dofs() {
-            for r in 0..2 {
-                s[2 * r] += c[r][i] * v[i][0];
-                s[2 * r + 1] += c[r][i] * v[i][1];
-                div[r] += c[r][i] * d[i];
-            }
-        }
-        (s, div)
-    }
-}
+use crate::tolerance::{EDGE_DEGREE, GAP_RELATIVE, MAX_ACTIVE_SET_ITERATIONS, MIN_CONE_FRICTION};
 
 /// What the reconstruction needs.
 pub struct Input<'a> {
     pub mesh: &'a Mesh,
-    pub topo: &'a Topology,
     pub scene: &'a Scene,
     pub u: &'a [[f64; 2]],
     pub edges: &'a [BoundaryEdge],
@@ -73,23 +44,7 @@ pub struct Input<'a> {
 }
 
 /// Cap on active-set changes.
-pub const MAX_ITERATIONS: usize = 200;
-
-/// Bilinear form B of the constitutive density Q(e) = B(e, e) (DESIGN.md §3).
-#[inline]
-fn bilinear(el: &Elastic, norm: Norm, x: [f64; 4], y: [f64; 4]) -> f64 {
-    let xy = x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3];
-    match norm {
-        Norm::Energy => el.mu * xy + 0.5 * el.lambda * (x[0] + x[3]) * (y[0] + y[3]),
-        Norm::Robust => el.mu * xy,
-        Norm::Seed => 0.5 * xy,
-    }
-}
-
-/// Jacobian of the cell map at `xi` (3 or 6 nodes).
-fn jacobian_at(x: &[[f64; 2]; 6], n: usize, xi: [f64; 2]) -> Jacobian {
-    jacobian(x, n, &shape_gradients(n, xi))
-}
+pub const MAX_ITERATIONS: usize = MAX_ACTIVE_SET_ITERATIONS;
 
 /// Global unknowns: per row, the edge slots of every edge, then the interior DOFs of every
 /// cell; at contact slots the two rows' unknowns are replaced by (y_n, y_t).
@@ -109,31 +64,6 @@ impl Dofs {
     }
 }
 
-/// Position, outward normal and |x'(s)| at parameter s of local edge `l` of a cell.
-pub(crate) fn edge_point(
-    x: &[[f64; 2]; 6],
-    n: usize,
-    l: usize,
-    s: f64,
-) -> ([f64; 2], [f64; 2], f64, [f64; 2]) {
-    let xi = edge_reference_point(l, s);
-    let jac = jacobian_at(x, n, xi);
-    let t_hat = rt::REFERENCE_EDGE_TANGENTS[l];
-    let m = jac.matrix;
-    let t = [
-        m[0][0] * t_hat[0] + m[0][1] * t_hat[1],
-        m[1][0] * t_hat[0] + m[1][1] * t_hat[1],
-    ];
-    let len = t[0].hypot(t[1]);
-    let phi = shape_values(n, xi);
-    let mut p = [0.0; 2];
-    for k in 0..n {
-        p[0] += x[k][0] * phi[k];
-        p[1] += x[k][1] * phi[k];
-    }
-    (p, [t[1] / len, -t[0] / len], len, xi)
-}
-
 /// At a contact DOF point, the two unknowns (y₀, y₁) stored in the two rows' slots and the
 /// owner's orientation sign: the owner's outward flux of row r is c₀_r y₀ + c₁_r y₁ (the
 /// frame (n, t) without friction, the cone variables with it), the global DOF is sign × that.
@@ -150,12 +80,14 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
     let mesh = inp.mesh;
     let order = inp.order;
     let nloc = order.dofs();
-    let ntri = mesh.triangles.len();
+    let sub = SubMesh::new(mesh);
+    let topo = &sub.topo;
+    let ntri = sub.len();
     let dofs = Dofs {
-        per_row: inp.topo.edges.len() * order.edge_dofs() + ntri * order.interior_dofs(),
+        per_row: topo.edges.len() * order.edge_dofs() + ntri * order.interior_dofs(),
         edge_dofs: order.edge_dofs(),
         interior: order.interior_dofs(),
-        edges: inp.topo.edges.len(),
+        edges: topo.edges.len(),
     };
     let n = 2 * dofs.per_row;
     let el = Elastic::new(&inp.scene.material);
@@ -165,9 +97,12 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
     let w_d = el.equilibrium_weight(inp.norm, inp.length_scale);
 
     // Condition of each edge, and contact frames / fixed values per edge slot.
-    let mut condition = vec![None::<(Condition, u32, u8)>; inp.topo.edges.len()];
+    let mut condition = vec![None::<(Condition, u32, u8)>; topo.edges.len()];
     for be in inp.edges {
-        condition[be.edge as usize] = Some((be.condition, be.cell, be.local));
+        let [a, b, _] = mesh.edge(be.cell as usize, be.local as usize);
+        if let Some((e, r, l)) = sub.locate_edge(a, b) {
+            condition[e] = Some((be.condition, r as u32, l as u8));
+        }
     }
     // For contact slots: (n, t) such that x_r = n_r y_n + t_r y_t in the owner's outward sense.
     let mut frame: Vec<Option<Frame>> = vec![None; n];
@@ -177,7 +112,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
     let mut candidates: Vec<(f64, [usize; 2])> = Vec::new();
     // An open gap, beyond round-off of the contact-normal displacement (as in the estimator's
     // contact states, [`crate::estimate::boundary::GAP_TOLERANCE`]).
-    let gap_tolerance = crate::estimate::boundary::GAP_TOLERANCE
+    let gap_tolerance = GAP_RELATIVE
         * inp
             .u
             .iter()
@@ -187,15 +122,17 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         let Some((cond, cell, local)) = *c else {
             continue;
         };
-        let t = cell as usize;
+        let r = cell as usize;
         let l = local as usize;
+        let t = sub.parent[r] as usize;
+        let (fam, k) = (mesh.family[t], sub.index[r] as usize);
         let x = mesh.coords(t);
-        let nn = mesh.nodes(t).len();
-        let forward = inp.topo.cell_edge_sign[t][l] > 0;
+        let forward = topo.cell_edge_sign[r][l] > 0;
         for slot in 0..order.edge_dofs() {
             let s_global = order.edge_points()[slot];
             let s = if forward { s_global } else { 1.0 - s_global };
-            let (p, normal, len, _) = edge_point(&x, nn, l, s);
+            let (sp, normal, len, _) = sub_edge_point(fam, &x, k, l, s);
+            let p = sp.x;
             // Global DOF = sgn × (outward flux density of the owner).
             let sgn = if forward { 1.0 } else { -1.0 };
             let (g0, g1) = (dofs.edge(0, e, slot), dofs.edge(1, e, slot));
@@ -224,17 +161,13 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                     // Where u_h leaves a gap and Cε(u_h) does not press on the boundary, the
                     // contact stress vanishes at the minimiser in all but degenerate cases: the
                     // active set starts there (only the iteration count depends on it).
-                    let (_, _, _, xi) = edge_point(&x, nn, l, s);
-                    let phi = shape_values(nn, xi);
-                    let jac = jacobian_at(&x, nn, xi);
-                    let gref = shape_gradients(nn, xi);
                     let mut uh = [0.0; 2];
                     let mut gu = [[0.0; 2]; 2];
-                    for (k, &q) in mesh.nodes(t).iter().enumerate() {
+                    for (i, &q) in mesh.nodes(t).iter().enumerate() {
                         let uq = inp.u[q as usize];
-                        let gk = jac.physical_gradient(gref[k]);
+                        let gk = sp.grad[i];
                         for a in 0..2 {
-                            uh[a] += phi[k] * uq[a];
+                            uh[a] += sp.phi[i] * uq[a];
                             gu[a][0] += uq[a] * gk[0];
                             gu[a][1] += uq[a] * gk[1];
                         }
@@ -252,7 +185,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
                         0.0
                     };
 
-                    if fr >= super::condition::MIN_CONE_FRICTION {
+                    if fr >= MIN_CONE_FRICTION {
                         // The 2D cone |y_t| ≤ −𝔉 y_n is w₁ = y_t + 𝔉y_n ≤ 0, w₂ = −y_t + 𝔉y_n ≤ 0:
                         // y_n = (w₁ + w₂)/(2𝔉), y_t = (w₁ − w₂)/2, bounds on single unknowns.
                         let h = 0.5 / fr;
@@ -288,8 +221,8 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             return [(dofs.interior(r, t, m), 1.0), (usize::MAX, 0.0)];
         }
         let l = i / order.edge_dofs();
-        let e = inp.topo.cell_edges[t][l] as usize;
-        let forward = inp.topo.cell_edge_sign[t][l] > 0;
+        let e = topo.cell_edges[t][l] as usize;
+        let forward = topo.cell_edge_sign[t][l] > 0;
         let (_, slot, sign) = rt::local_to_global_edge(order, l, forward)
             .find(|&(loc, _, _)| loc == i)
             .unwrap_or((i, 0, 1.0));
@@ -304,31 +237,27 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         }
     };
 
-    let rule_straight = triangle_rule_cached(4);
-    let rule_curved = triangle_rule_cached(crate::estimate::interior::CURVED_DEGREE);
     let f_expr = inp.scene.body_force.as_ref();
     let mut entries: Vec<(usize, usize, f64)> = Vec::with_capacity(ntri * 4 * nloc * nloc);
     let mut b = vec![0.0; n];
     let nl = 2 * nloc;
     for t in 0..ntri {
-        let x = mesh.coords(t);
-        let nodes = mesh.nodes(t);
-        let nn = nodes.len();
-        let rule = if is_curved(mesh, t) {
-            rule_curved
-        } else {
-            rule_straight
-        };
+        let parent = sub.parent[t] as usize;
+        let (fam, half) = (mesh.family[parent], sub.index[t] as usize);
+        let x = mesh.coords(parent);
+        let nodes = mesh.nodes(parent);
+        let p_deg = crate::geometry::values::integrand_degree(fam, Some(order.k())).max(4);
+        let rule = triangle_rule_cached(rule_degree(mesh.shape[parent], p_deg));
         let mut kloc = vec![0.0; nl * nl];
         let mut bloc = vec![0.0; nl];
         for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-            let jac = jacobian_at(&x, nn, xi);
+            let sp = sub_point(fam, &x, half, xi);
+            let jac = sp.jac;
             let w = wq * jac.det;
             // ε(u_h).
-            let g = shape_gradients(nn, xi);
             let mut gu = [[0.0; 2]; 2];
             for (k, &p) in nodes.iter().enumerate() {
-                let gp = jac.physical_gradient(g[k]);
+                let gp = sp.grad[k];
                 let u = inp.u[p as usize];
                 for a in 0..2 {
                     gu[a][0] += u[a] * gp[0];
@@ -339,15 +268,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             let eps = [gu[0][0], sym, sym, gu[1][1]];
             let f = match f_expr {
                 None => [0.0; 2],
-                Some(fe) => {
-                    let phi = shape_values(nn, xi);
-                    let mut p = [0.0; 2];
-                    for k in 0..nn {
-                        p[0] += x[k][0] * phi[k];
-                        p[1] += x[k][1] * phi[k];
-                    }
-                    [fe[0].eval(p[0], p[1], 0.0), fe[1].eval(p[0], p[1], 0.0)]
-                }
+                Some(fe) => [fe[0].eval(sp.x[0], sp.x[1], 0.0), fe[1].eval(sp.x[0], sp.x[1], 0.0)],
             };
             let (v, d) = rt::piola(order, &jac, xi);
             // A τ and div τ of each local function (row r = φ_i, the other row 0).
@@ -364,11 +285,11 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             }
             for a in 0..nl {
                 bloc[a] += w
-                    * (2.0 * bilinear(&el, inp.norm, eps, at[a])
+                    * (2.0 * el.bilinear(inp.norm, eps, at[a])
                         - w_d * (f[0] * dv[a][0] + f[1] * dv[a][1]));
                 for c in 0..=a {
                     let kv = w
-                        * (2.0 * bilinear(&el, inp.norm, at[a], at[c])
+                        * (2.0 * el.bilinear(inp.norm, at[a], at[c])
                             + w_d * (dv[a][0] * dv[c][0] + dv[a][1] * dv[c][1]));
                     kloc[a * nl + c] += kv;
                 }
@@ -376,24 +297,23 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         }
         // Contact edges of this cell: −⟨u_n − g, τ_n⟩ on the right-hand side.
         for l in 0..3 {
-            let e = inp.topo.cell_edges[t][l] as usize;
+            let e = topo.cell_edges[t][l] as usize;
             let Some((Condition::Contact(bi), _, _)) = condition[e] else {
                 continue;
             };
             let BoundaryKind::Contact(spec) = &inp.scene.boundaries[bi].kind else {
                 continue;
             };
-            let lr = line_rule_cached(39);
+            let lr = line_rule_cached(EDGE_DEGREE);
             for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
-                let (p, normal, len, xi) = edge_point(&x, nn, l, s);
-                let jac = jacobian_at(&x, nn, xi);
-                let (v, _) = rt::piola(order, &jac, xi);
-                let phi = shape_values(nn, xi);
+                let (sp, normal, len, xi) = sub_edge_point(fam, &x, half, l, s);
+                let (v, _) = rt::piola(order, &sp.jac, xi);
                 let mut u = [0.0; 2];
                 for (k, &pn) in nodes.iter().enumerate() {
-                    u[0] += inp.u[pn as usize][0] * phi[k];
-                    u[1] += inp.u[pn as usize][1] * phi[k];
+                    u[0] += inp.u[pn as usize][0] * sp.phi[k];
+                    u[1] += inp.u[pn as usize][1] * sp.phi[k];
                 }
+                let p = sp.x;
                 let cn = spec.direction(normal);
                 let ct = [-cn[1], cn[0]];
                 let gap = spec.gap_at(p, cn);
@@ -484,6 +404,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         stress: RtStress {
             order,
             coefficients,
+            first: sub.first,
         },
         info,
     })

@@ -182,7 +182,7 @@ pub struct Marked {
 }
 
 fn file_cell(mesh: &Mesh, t: usize) -> usize {
-    mesh.triangle_cell.get(t).map_or(t, |&c| c as usize)
+    mesh.file_cell.get(t).map_or(t, |&c| c as usize)
 }
 
 /// Builds the JSON document of a run.
@@ -270,7 +270,7 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
             failed_hypotheses: est.bound.failed_hypotheses.clone(),
         },
         cells: Cells {
-            count: mesh.triangles.len(),
+            count: mesh.cells.len(),
             worst: worst_cells(c, WORST)
                 .into_iter()
                 .map(|t| WorstCell {

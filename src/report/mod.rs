@@ -7,7 +7,7 @@
 //! printers only rank, attribute and format it.
 //!
 //! Conventions shared by all printers:
-//! - Cell indices shown to the user are indices in the VTU file (`Mesh::triangle_cell`),
+//! - Cell indices shown to the user are indices in the VTU file (`Mesh::file_cell`),
 //!   never internal triangle numbers.
 //! - The local indicator is η_T = (max(η_T², 0))^½, where
 //!   η_T² = F_const,T + F_div,T + Σ_{E ⊂ ∂T ∩ Γ_C} (F_comp,E + F_fric,E). η_T² itself is

@@ -76,7 +76,7 @@ fn table(o: &mut String, indent: usize, right: &[bool], rows: &[Vec<String>]) {
 /// The terminal summary of a run.
 pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
     let mut o = String::new();
-    let file_cell = |t: usize| mesh.triangle_cell.get(t).map_or(t, |&c| c as usize);
+    let file_cell = |t: usize| mesh.file_cell.get(t).map_or(t, |&c| c as usize);
     let _ = writeln!(
         o,
         "fosls {}: FOSLS audit of {}",
@@ -129,7 +129,7 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         "mesh".into(),
         format!(
             "{} P{} triangles, {} line cells",
-            mesh.triangles.len(),
+            mesh.cells.len(),
             mesh.degree,
             mesh.lines.len()
         ),
@@ -295,7 +295,7 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         o,
         "\nWorst cells ({} of {}, by η_T; cell = index in the VTU file)",
         worst.len(),
-        mesh.triangles.len()
+        mesh.cells.len()
     );
     let mut rows = vec![vec![
         "rank".to_string(),

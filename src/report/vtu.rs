@@ -74,16 +74,11 @@ pub fn output_file(
     marked: Option<&[bool]>,
 ) -> VtuFile {
     let mesh = &data.mesh;
-    let nt = mesh.triangles.len();
+    let nt = mesh.cells.len();
     let nl = mesh.lines.len();
-    let tri_type = if mesh.degree == 2 {
-        cell_type::QUADRATIC_TRIANGLE
-    } else {
-        cell_type::TRIANGLE
-    };
     let mut cells: Vec<(u8, Vec<u32>)> = Vec::with_capacity(nt + nl);
     for t in 0..nt {
-        cells.push((tri_type, mesh.nodes(t).to_vec()));
+        cells.push((cell_type::of_family(mesh.family[t]), mesh.nodes(t).to_vec()));
     }
     for l in &mesh.lines {
         if l[2] == NONE {
@@ -157,7 +152,7 @@ pub fn output_file(
     file.cell_data = ours;
 
     // The input's cell arrays: triangle part, then line part (zeros if it is missing).
-    for (k, a) in data.triangle_data.iter().enumerate() {
+    for (k, a) in data.cell_data.iter().enumerate() {
         let w = a.components;
         let mut values = a.values.clone();
         values.resize(nt * w, 0.0);
@@ -194,31 +189,29 @@ pub fn discontinuous_file(
     u: &[[f64; 2]],
     est: &Estimate,
 ) -> VtuFile {
-    use crate::element::lagrange::{P1_NODES, P2_NODES, jacobian, shape_gradients};
-    let nt = mesh.triangles.len();
-    let (tri_type, reference) = if mesh.degree == 2 {
-        (cell_type::QUADRATIC_TRIANGLE, &P2_NODES[..])
-    } else {
-        (cell_type::TRIANGLE, &P1_NODES[..])
-    };
-    let nn = reference.len();
-    let mut points = Vec::with_capacity(nt * nn);
+    let nt = mesh.cells.len();
+    let total: usize = (0..nt).map(|t| mesh.family[t].nodes()).sum();
+    let mut points = Vec::with_capacity(total);
     let mut cells = Vec::with_capacity(nt);
-    let mut stress = Vec::with_capacity(nt * nn * 9);
-    let mut displacement = Vec::with_capacity(nt * nn * 2);
+    let mut stress = Vec::with_capacity(total * 9);
+    let mut displacement = Vec::with_capacity(total * 2);
     for t in 0..nt {
         let nodes = mesh.nodes(t);
+        let fam = mesh.family[t];
+        let nn = fam.nodes();
         let x = mesh.coords(t);
-        cells.push((tri_type, ((t * nn) as u32..((t + 1) * nn) as u32).collect()));
-        for (k, &xi) in reference.iter().enumerate() {
+        let base = points.len() as u32;
+        cells.push((cell_type::of_family(fam), (base..base + nn as u32).collect()));
+        for (k, &xi) in fam.reference_nodes().iter().enumerate() {
             let p = nodes[k] as usize;
             points.push([x[k][0], x[k][1], 0.0]);
             displacement.extend_from_slice(&u[p]);
             let s = match sigma {
-                crate::estimate::StressField::Nodal(v) => v[p],
-                crate::estimate::StressField::Rt(rt) => {
-                    let jac = jacobian(&x, nn, &shape_gradients(nn, xi));
-                    rt.at(t, &jac, xi).0
+                crate::field::StressField::Nodal(v) => v[p],
+                crate::field::StressField::Rt(rt) => {
+                    let (_, g) = fam.shape(xi);
+                    let jac = crate::geometry::values::jacobian(&x[..nn], nn, &g);
+                    rt.at_parent(mesh, t, &jac, xi).0
                 }
             };
             stress.extend_from_slice(&tensor9(s));

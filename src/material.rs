@@ -51,14 +51,18 @@ impl Elastic {
     /// - seed:   ½ e:e
     #[inline]
     pub fn constitutive_density(&self, norm: Norm, e: [f64; 4]) -> f64 {
-        let ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3];
+        self.bilinear(norm, e, e)
+    }
+
+    /// The symmetric bilinear form B of the constitutive density, Q(e) = B(e, e):
+    /// energy μ x:y + ½λ tr x tr y, robust μ x:y, seed ½ x:y (docs/design.md §3).
+    #[inline]
+    pub fn bilinear(&self, norm: Norm, x: [f64; 4], y: [f64; 4]) -> f64 {
+        let xy = x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3];
         match norm {
-            Norm::Energy => {
-                let tr = e[0] + e[3];
-                self.mu * ee + 0.5 * self.lambda * tr * tr
-            }
-            Norm::Robust => self.mu * ee,
-            Norm::Seed => 0.5 * ee,
+            Norm::Energy => self.mu * xy + 0.5 * self.lambda * (x[0] + x[3]) * (y[0] + y[3]),
+            Norm::Robust => self.mu * xy,
+            Norm::Seed => 0.5 * xy,
         }
     }
 

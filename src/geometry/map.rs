@@ -17,7 +17,7 @@
 //! §9 layer 1 (element tests).
 
 use super::edge::{EDGE_NODES, LinearEdge, QuadraticEdge};
-use super::lagrange::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
+use super::triangle::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
 
 /// The Jacobian J = ∂x/∂ξ of a reference-to-physical map at one point, with its determinant
 /// and inverse.
@@ -256,8 +256,8 @@ impl CellMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::edge::{REFERENCE_NORMALS, edge_reference_point, outward_normal};
-    use crate::element::lagrange::P2_NODES;
+    use crate::geometry::edge::{REFERENCE_NORMALS, edge_reference_point, outward_normal};
+    use crate::geometry::triangle::P2_NODES;
     use crate::quadrature::{line_rule, triangle_rule};
 
     fn sample_points() -> Vec<[f64; 2]> {

@@ -10,7 +10,7 @@
 //! order (0→1, 1→2, 2→0), have the cell on their left, so the outward unit normal is the
 //! tangent turned clockwise: n = (t_y, −t_x)/|t| ([`outward_normal`]).
 
-use super::lagrange::{line_p1_values, line_p2_derivatives, line_p2_values};
+use super::triangle::{line_p1_values, line_p2_derivatives, line_p2_values};
 
 /// Local edges of the triangle, VTK order: [start vertex, end vertex, mid node]. Edge i is
 /// opposite vertex (i + 2) mod 3.
@@ -205,7 +205,7 @@ impl EdgeMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::lagrange::P2_NODES;
+    use crate::geometry::triangle::P2_NODES;
     use crate::quadrature::line_rule;
 
     fn assert_close(a: f64, b: f64, tol: f64, what: &str) {

@@ -1,0 +1,134 @@
+//! The fields the functional is evaluated for (docs/design.md §4): a displacement per mesh
+//! point and a stress that is either continuous nodal data or a row-wise Raviart–Thomas field
+//! on the cells' sub-triangles (docs/design.md §5.4).
+
+use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
+use crate::geometry::values::{compose, locate_sub, sub_count, sub_map};
+use crate::geometry::{Jacobian, MAX_NODES};
+use crate::mesh::Mesh;
+
+/// A row-wise RT_k stress: per sub-triangle and row, the coefficients of the local basis.
+/// Sub-triangle `first[t] + k` is half `k` of cell `t` ([`crate::geometry::SubCell`]).
+#[derive(Clone, Debug)]
+pub struct RtStress {
+    pub order: RtOrder,
+    pub coefficients: Vec<[[f64; MAX_RT_DOFS]; 2]>,
+    /// First sub-triangle of each cell (`first[t] = t` on triangle meshes), with one more
+    /// entry at the end.
+    pub first: Vec<u32>,
+}
+
+impl RtStress {
+    /// σ (row-major `[xx, xy, yx, yy]`) and div σ at reference point `xi_sub` of sub-triangle
+    /// `sub`, whose map has Jacobian `jac_sub` there (the contravariant Piola map).
+    #[inline]
+    pub fn at(&self, sub: usize, jac_sub: &Jacobian, xi_sub: [f64; 2]) -> ([f64; 4], [f64; 2]) {
+        let (v, d) = rt::piola(self.order, jac_sub, xi_sub);
+        let c = &self.coefficients[sub];
+        let mut s = [0.0; 4];
+        let mut div = [0.0; 2];
+        for i in 0..self.order.dofs() {
+            for r in 0..2 {
+                s[2 * r] += c[r][i] * v[i][0];
+                s[2 * r + 1] += c[r][i] * v[i][1];
+                div[r] += c[r][i] * d[i];
+            }
+        }
+        (s, div)
+    }
+
+    /// σ and div σ at parent reference point `xi` of cell `t` with parent Jacobian `jac`
+    /// there: the sub-triangle holding ξ is found first.
+    #[inline]
+    pub fn at_parent(
+        &self,
+        mesh: &Mesh,
+        t: usize,
+        jac: &Jacobian,
+        xi: [f64; 2],
+    ) -> ([f64; 4], [f64; 2]) {
+        let f = mesh.family[t];
+        let (k, xs) = locate_sub(f, xi);
+        let js = compose(jac, sub_map(f, k).0);
+        self.at(self.first[t] as usize + k, &js, xs)
+    }
+
+    /// Sub-triangles of cell `t`.
+    #[inline]
+    pub fn subs(&self, mesh: &Mesh, t: usize) -> usize {
+        sub_count(mesh.family[t])
+    }
+}
+
+/// A stress the functional can be evaluated for (docs/design.md §4).
+#[derive(Clone, Copy, Debug)]
+pub enum StressField<'a> {
+    /// Continuous nodal values per mesh point, row-major `[xx, xy, yx, yy]`.
+    Nodal(&'a [[f64; 4]]),
+    /// Row-wise Raviart–Thomas (a reconstruction).
+    Rt(&'a RtStress),
+}
+
+impl StressField<'_> {
+    /// The largest stress component magnitude (at nodes, or at sub-triangle centroids for RT),
+    /// the scale of the stress admissibility tolerances.
+    pub fn scale(&self, mesh: &Mesh) -> f64 {
+        match self {
+            StressField::Nodal(s) => s
+                .iter()
+                .fold(0.0f64, |m, v| v.iter().fold(m, |m, x| m.max(x.abs()))),
+            StressField::Rt(rt) => (0..mesh.len())
+                .map(|t| {
+                    let f = mesh.family[t];
+                    let x = mesh.coords(t);
+                    (0..sub_count(f))
+                        .map(|k| {
+                            let c = [1.0 / 3.0, 1.0 / 3.0];
+                            let js = crate::geometry::values::sub_point(f, &x, k, c).jac;
+                            let (s, _) = rt.at(rt.first[t] as usize + k, &js, c);
+                            s.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+                        })
+                        .fold(0.0f64, f64::max)
+                })
+                .fold(0.0f64, f64::max),
+        }
+    }
+
+    /// σ at point q of a [`crate::geometry::CellValues`] of cell `t` (nodal values `s` of the
+    /// cell, or the RT field on the sub-triangle of a split table).
+    #[inline]
+    pub fn at_point(
+        &self,
+        cv: &crate::geometry::CellValues,
+        t: usize,
+        q: usize,
+        s: &[[f64; 4]; MAX_NODES],
+    ) -> ([f64; 4], [f64; 2]) {
+        match self {
+            StressField::Nodal(_) => {
+                let phi = cv.phi(q);
+                let g = &cv.grad[q];
+                let mut sig = [0.0; 4];
+                let mut div = [0.0; 2];
+                for k in 0..cv.n {
+                    for m in 0..4 {
+                        sig[m] += s[k][m] * phi[k];
+                    }
+                    div[0] += s[k][0] * g[k][0] + s[k][1] * g[k][1];
+                    div[1] += s[k][2] * g[k][0] + s[k][3] * g[k][1];
+                }
+                (sig, div)
+            }
+            StressField::Rt(rt) => {
+                let table = cv.table;
+                if table.sub.is_empty() {
+                    rt.at(rt.first[t] as usize, &cv.jac[q], table.points[q])
+                } else {
+                    let k = table.sub[q] as usize;
+                    let js = compose(&cv.jac[q], sub_map(table.family, k).0);
+                    rt.at(rt.first[t] as usize + k, &js, table.sub_points[q])
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,574 @@
+//! Cell values, facet points and sub-triangles: the quantities every stage reads
+//! (docs/design.md §4.3).
+//!
+//! - [`Table`]: a quadrature rule on the reference cell of a family with the shape values and
+//!   reference gradients at its points, built once per (family, degree, split) and cached.
+//!   Quadrilaterals use the tensor Gauss–Legendre rule with ⌊d/2⌋ + 1 points per direction
+//!   (exact for degree d in each variable); triangles the symmetric rules of
+//!   [`crate::quadrature`]. A *split* table on a quadrilateral is the triangle rule on each
+//!   half of the fixed sub-triangulation ([`SubCell`]), for integrands that are polynomial on
+//!   the halves (RT fields, docs/design.md §5.4).
+//! - [`CellValues`]: for one cell, at every point q of a table: x_q, w_q det J(ξ_q),
+//!   J(ξ_q) and the physical gradients ∇φ_i = J^{−T} ∇̂φ_i.
+//! - [`facet_point`]: on local edge k at s: x, the outward unit normal, |dx/ds|, ξ, J, φ, ∇φ.
+
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
+
+use super::{Family, Jacobian, MAX_NODES, Shape};
+use crate::tolerance;
+use crate::quadrature::{line_rule, triangle_rule_cached};
+
+/// A rule on a family's reference cell with the shape functions tabulated at its points.
+#[derive(Debug)]
+pub struct Table {
+    pub family: Family,
+    /// The polynomial degree the rule integrates exactly (per variable on quadrilaterals).
+    pub degree: usize,
+    pub points: Vec<[f64; 2]>,
+    pub weights: Vec<f64>,
+    pub values: Vec<[f64; MAX_NODES]>,
+    pub gradients: Vec<[[f64; 2]; MAX_NODES]>,
+    /// Split tables: the sub-triangle of each point and its coordinate there.
+    pub sub: Vec<u8>,
+    pub sub_points: Vec<[f64; 2]>,
+}
+
+impl Table {
+    fn build(family: Family, degree: usize, split: bool) -> Table {
+        let mut points = Vec::new();
+        let mut weights = Vec::new();
+        let mut sub = Vec::new();
+        let mut sub_points = Vec::new();
+        if family.is_quad() && !split {
+            let r = line_rule(degree);
+            for (&y, &wy) in r.points.iter().zip(&r.weights) {
+                for (&x, &wx) in r.points.iter().zip(&r.weights) {
+                    points.push([x, y]);
+                    weights.push(wx * wy);
+                }
+            }
+        } else {
+            let r = triangle_rule_cached(degree);
+            for k in 0..sub_count(family) {
+                let (a, b) = sub_map(family, k);
+                for (&p, &w) in r.points.iter().zip(&r.weights) {
+                    points.push(apply(a, b, p));
+                    weights.push(w * det2(a));
+                    sub.push(k as u8);
+                    sub_points.push(p);
+                }
+            }
+        }
+        let (values, gradients) = points.iter().map(|&p| family.shape(p)).unzip();
+        Table {
+            family,
+            degree,
+            points,
+            weights,
+            values,
+            gradients,
+            sub,
+            sub_points,
+        }
+    }
+
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.weights.len()
+    }
+
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.weights.is_empty()
+    }
+}
+
+/// The cached table of `family` exact to `degree`; `split` asks for the rule on the
+/// sub-triangles (the same as the plain rule on triangles).
+pub fn table(family: Family, degree: usize, split: bool) -> &'static Table {
+    static CACHE: OnceLock<Mutex<HashMap<(Family, usize, bool), &'static Table>>> =
+        OnceLock::new();
+    let split = split && family.is_quad();
+    let mut map = CACHE
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    map.entry((family, degree, split))
+        .or_insert_with(|| Box::leak(Box::new(Table::build(family, degree, split))))
+}
+
+/// The polynomial degree (per variable on quadrilaterals) of the interior integrands on an
+/// affine cell of `family`: squares of ε(u_h) − Aσ_h and div σ_h + f with u_h, σ_h of the
+/// family's degree (2 for P1/Q1, 4 for P2/Q2/S2), or of an RT_k stress on the sub-triangles
+/// (degree 2(k + 1) against ε(u_h) of degree 2p − 1 on the halves of a quadrilateral).
+pub fn integrand_degree(family: Family, rt: Option<usize>) -> usize {
+    let p = family.degree();
+    match rt {
+        None => 2 * p,
+        Some(k) if family.is_quad() => (2 * (k + 1)).max(2 * (2 * p - 1)),
+        Some(k) => (2 * (k + 1)).max(2 * p),
+    }
+}
+
+/// The table the interior terms of a cell are integrated with: exact for the polynomial
+/// integrands on affine cells, `smooth_data` false raising it for non-polynomial body forces.
+pub fn interior_table(
+    family: Family,
+    shape: Shape,
+    rt: Option<usize>,
+    smooth_data: bool,
+) -> &'static Table {
+    let p = integrand_degree(family, rt);
+    let p = if smooth_data {
+        p
+    } else {
+        p.max(crate::quadrature::MAX_TABULATED_DEGREE)
+    };
+    table(family, rule_degree(shape, p), rt.is_some())
+}
+
+/// The rule degree for an integrand that is a polynomial of degree `p` (per variable on
+/// quadrilaterals) on affine cells: `p` there, `p` + [`tolerance::BILINEAR_EXTRA_DEGREE`] on
+/// bilinear quadrilaterals and at least [`tolerance::CURVED_DEGREE`] on curved cells, where
+/// the integrands are rational.
+pub fn rule_degree(shape: Shape, p: usize) -> usize {
+    match shape {
+        Shape::Affine => p,
+        Shape::Bilinear => p + tolerance::BILINEAR_EXTRA_DEGREE,
+        Shape::Curved => p.max(tolerance::CURVED_DEGREE),
+    }
+}
+
+#[inline]
+fn apply(a: [[f64; 2]; 2], b: [f64; 2], p: [f64; 2]) -> [f64; 2] {
+    [
+        b[0] + a[0][0] * p[0] + a[0][1] * p[1],
+        b[1] + a[1][0] * p[0] + a[1][1] * p[1],
+    ]
+}
+
+#[inline]
+fn det2(a: [[f64; 2]; 2]) -> f64 {
+    a[0][0] * a[1][1] - a[0][1] * a[1][0]
+}
+
+/// J = Σ_i (x_i − x_0) ⊗ ∇̂φ_i (differences keep the digits of cells far from the origin;
+/// Σ ∇̂φ_i = 0).
+#[inline]
+pub fn jacobian(x: &[[f64; 2]], n: usize, g: &[[f64; 2]; MAX_NODES]) -> Jacobian {
+    let mut m = [[0.0; 2]; 2];
+    for i in 1..n {
+        let d = [x[i][0] - x[0][0], x[i][1] - x[0][1]];
+        for a in 0..2 {
+            m[a][0] += d[a] * g[i][0];
+            m[a][1] += d[a] * g[i][1];
+        }
+    }
+    Jacobian::new(m)
+}
+
+/// x(ξ) = x_0 + Σ_i (x_i − x_0) φ_i(ξ).
+#[inline]
+pub fn position(x: &[[f64; 2]], n: usize, phi: &[f64; MAX_NODES]) -> [f64; 2] {
+    let mut p = [0.0; 2];
+    for i in 1..n {
+        p[0] += (x[i][0] - x[0][0]) * phi[i];
+        p[1] += (x[i][1] - x[0][1]) * phi[i];
+    }
+    [p[0] + x[0][0], p[1] + x[0][1]]
+}
+
+/// Geometry of one cell at the points of a [`Table`], refilled by [`CellValues::reinit`]
+/// (one per thread; no allocation per cell).
+pub struct CellValues {
+    pub table: &'static Table,
+    /// Nodes of the family.
+    pub n: usize,
+    pub x: Vec<[f64; 2]>,
+    /// w_q · det J(ξ_q).
+    pub jxw: Vec<f64>,
+    pub jac: Vec<Jacobian>,
+    /// ∇φ_i(x_q) = J^{−T} ∇̂φ_i(ξ_q).
+    pub grad: Vec<[[f64; 2]; MAX_NODES]>,
+}
+
+impl CellValues {
+    pub fn new(table: &'static Table) -> CellValues {
+        let nq = table.len();
+        CellValues {
+            table,
+            n: table.family.nodes(),
+            x: vec![[0.0; 2]; nq],
+            jxw: vec![0.0; nq],
+            jac: vec![Jacobian::new([[1.0, 0.0], [0.0, 1.0]]); nq],
+            grad: vec![[[0.0; 2]; MAX_NODES]; nq],
+        }
+    }
+
+    /// Fills the values for the cell with node coordinates `coords`; `affine` cells (constant
+    /// J, decided once by the mesh) evaluate J once.
+    pub fn reinit(&mut self, coords: &[[f64; 2]], affine: bool) {
+        let t = self.table;
+        let n = self.n;
+        let fixed = affine.then(|| jacobian(coords, n, &t.gradients[0]));
+        for q in 0..t.len() {
+            let jac = fixed.unwrap_or_else(|| jacobian(coords, n, &t.gradients[q]));
+            self.jac[q] = jac;
+            self.jxw[q] = t.weights[q] * jac.det;
+            self.x[q] = position(coords, n, &t.values[q]);
+            let g = &t.gradients[q];
+            let out = &mut self.grad[q];
+            for i in 0..n {
+                out[i] = jac.physical_gradient(g[i]);
+            }
+        }
+    }
+
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.jxw.len()
+    }
+
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.jxw.is_empty()
+    }
+
+    /// Shape values at point q.
+    #[inline]
+    pub fn phi(&self, q: usize) -> &[f64; MAX_NODES] {
+        &self.table.values[q]
+    }
+
+    /// Σ_i v_i φ_i(x_q) of a vector field with nodal values `v`.
+    #[inline]
+    pub fn value2(&self, q: usize, v: &[[f64; 2]]) -> [f64; 2] {
+        let phi = self.phi(q);
+        let mut r = [0.0; 2];
+        for i in 0..self.n {
+            r[0] += v[i][0] * phi[i];
+            r[1] += v[i][1] * phi[i];
+        }
+        r
+    }
+
+    /// ∇v(x_q) (row a: component, column b: ∂/∂x_b) of a vector field with nodal values `v`.
+    #[inline]
+    pub fn gradient2(&self, q: usize, v: &[[f64; 2]]) -> [[f64; 2]; 2] {
+        let g = &self.grad[q];
+        let mut r = [[0.0; 2]; 2];
+        for i in 0..self.n {
+            for a in 0..2 {
+                r[a][0] += v[i][a] * g[i][0];
+                r[a][1] += v[i][a] * g[i][1];
+            }
+        }
+        r
+    }
+}
+
+/// Values on a cell edge at one parameter.
+#[derive(Clone, Copy, Debug)]
+pub struct FacetPoint {
+    pub x: [f64; 2],
+    /// Outward unit normal of the (counter-clockwise) cell.
+    pub normal: [f64; 2],
+    /// |dx/ds|.
+    pub ds: f64,
+    /// Tangent dx/ds.
+    pub tangent: [f64; 2],
+    /// Reference point in the cell.
+    pub xi: [f64; 2],
+    pub jac: Jacobian,
+    pub phi: [f64; MAX_NODES],
+    /// Physical gradients.
+    pub grad: [[f64; 2]; MAX_NODES],
+}
+
+impl FacetPoint {
+    /// Σ_i v_i φ_i of nodal vectors.
+    #[inline]
+    pub fn value2(&self, n: usize, v: &[[f64; 2]]) -> [f64; 2] {
+        let mut r = [0.0; 2];
+        for i in 0..n {
+            r[0] += v[i][0] * self.phi[i];
+            r[1] += v[i][1] * self.phi[i];
+        }
+        r
+    }
+
+    /// ∇v of nodal vectors.
+    #[inline]
+    pub fn gradient2(&self, n: usize, v: &[[f64; 2]]) -> [[f64; 2]; 2] {
+        let mut r = [[0.0; 2]; 2];
+        for i in 0..n {
+            for a in 0..2 {
+                r[a][0] += v[i][a] * self.grad[i][0];
+                r[a][1] += v[i][a] * self.grad[i][1];
+            }
+        }
+        r
+    }
+}
+
+/// The point at parameter s ∈ [0, 1] of local edge `k` (from vertex k towards vertex k + 1)
+/// of the cell of `family` with node coordinates `x`: x(ξ_k(s)), the tangent J ξ_k', |dx/ds|
+/// and the outward normal (t_y, −t_x)/|t|.
+#[inline]
+pub fn facet_point(family: Family, x: &[[f64; 2]], k: usize, s: f64) -> FacetPoint {
+    let xi = family.edge_point(k, s);
+    let n = family.nodes();
+    let (phi, g) = family.shape(xi);
+    let jac = jacobian(x, n, &g);
+    let d = family.edge_tangent(k);
+    let m = jac.matrix;
+    let tangent = [
+        m[0][0] * d[0] + m[0][1] * d[1],
+        m[1][0] * d[0] + m[1][1] * d[1],
+    ];
+    let ds = tangent[0].hypot(tangent[1]);
+    let mut grad = [[0.0; 2]; MAX_NODES];
+    for i in 0..n {
+        grad[i] = jac.physical_gradient(g[i]);
+    }
+    FacetPoint {
+        x: position(x, n, &phi),
+        normal: [tangent[1] / ds, -tangent[0] / ds],
+        ds,
+        tangent,
+        xi,
+        jac,
+        phi,
+        grad,
+    }
+}
+
+/// A triangle of the fixed sub-triangulation that carries RT fields (docs/design.md §5.4):
+/// the whole cell for a triangle; for a quadrilateral, half 0 with vertices (0, 1, 2) or
+/// half 1 with vertices (0, 2, 3). Its map is the parent's restricted to the half:
+/// ξ_parent = b + A ξ_sub, so J_sub = J_parent A.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SubCell {
+    pub parent: u32,
+    pub index: u8,
+}
+
+/// Sub-triangles per cell of a family.
+#[inline]
+pub const fn sub_count(family: Family) -> usize {
+    if family.is_quad() { 2 } else { 1 }
+}
+
+/// Parent-local vertices of sub-triangle `k`, counter-clockwise.
+#[inline]
+pub const fn sub_vertices(family: Family, k: usize) -> [usize; 3] {
+    if family.is_quad() {
+        if k == 0 { [0, 1, 2] } else { [0, 2, 3] }
+    } else {
+        [0, 1, 2]
+    }
+}
+
+/// (A, b) of ξ_parent = b + A ξ_sub for sub-triangle `k`.
+#[inline]
+pub const fn sub_map(family: Family, k: usize) -> ([[f64; 2]; 2], [f64; 2]) {
+    if family.is_quad() {
+        if k == 0 {
+            ([[1.0, 1.0], [0.0, 1.0]], [0.0, 0.0])
+        } else {
+            ([[1.0, 0.0], [1.0, 1.0]], [0.0, 0.0])
+        }
+    } else {
+        ([[1.0, 0.0], [0.0, 1.0]], [0.0, 0.0])
+    }
+}
+
+/// The parent edge under local edge `e` of sub-triangle `k`, traversed in the same direction
+/// with the same parameter, or `None` for the diagonal.
+#[inline]
+pub const fn sub_edge_parent(family: Family, k: usize, e: usize) -> Option<usize> {
+    if !family.is_quad() {
+        return Some(e);
+    }
+    match (k, e) {
+        (0, 0) => Some(0),
+        (0, 1) => Some(1),
+        (1, 1) => Some(2),
+        (1, 2) => Some(3),
+        _ => None,
+    }
+}
+
+/// The sub-triangle holding parent point ξ and the coordinate there: ξ_sub = A⁻¹(ξ − b).
+/// On a quadrilateral half 0 is {η ≤ ξ}, half 1 {η ≥ ξ}.
+#[inline]
+pub fn locate_sub(family: Family, xi: [f64; 2]) -> (usize, [f64; 2]) {
+    if !family.is_quad() {
+        return (0, xi);
+    }
+    if xi[1] <= xi[0] {
+        // A₀⁻¹ = [[1, −1], [0, 1]].
+        (0, [xi[0] - xi[1], xi[1]])
+    } else {
+        // A₁⁻¹ = [[1, 0], [−1, 1]].
+        (1, [xi[0], xi[1] - xi[0]])
+    }
+}
+
+/// Geometry at a point of a sub-triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct SubPoint {
+    pub x: [f64; 2],
+    /// The parent's reference point.
+    pub xi: [f64; 2],
+    /// J_parent A: the sub-triangle's Jacobian (Piola map of RT fields).
+    pub jac: Jacobian,
+    /// The parent's shape values and physical gradients there.
+    pub phi: [f64; MAX_NODES],
+    pub grad: [[f64; 2]; MAX_NODES],
+}
+
+/// Geometry at ξ_sub of sub-triangle `k` of the cell of `family` with nodes `x`.
+#[inline]
+pub fn sub_point(family: Family, x: &[[f64; 2]], k: usize, xi_sub: [f64; 2]) -> SubPoint {
+    let (a, b) = sub_map(family, k);
+    let xi = apply(a, b, xi_sub);
+    let n = family.nodes();
+    let (phi, g) = family.shape(xi);
+    let jp = jacobian(x, n, &g);
+    let mut grad = [[0.0; 2]; MAX_NODES];
+    for i in 0..n {
+        grad[i] = jp.physical_gradient(g[i]);
+    }
+    SubPoint {
+        x: position(x, n, &phi),
+        xi,
+        jac: compose(&jp, a),
+        phi,
+        grad,
+    }
+}
+
+/// Geometry at parameter s of local edge `l` of sub-triangle `k` (from its vertex l towards
+/// l + 1): the point, the outward normal, |dx/ds| and ξ_sub.
+#[inline]
+pub fn sub_edge_point(
+    family: Family,
+    x: &[[f64; 2]],
+    k: usize,
+    l: usize,
+    s: f64,
+) -> (SubPoint, [f64; 2], f64, [f64; 2]) {
+    let xs = super::edge::edge_reference_point(l, s);
+    let p = sub_point(family, x, k, xs);
+    let d = Family::Tri3.edge_tangent(l);
+    let m = p.jac.matrix;
+    let t = [
+        m[0][0] * d[0] + m[0][1] * d[1],
+        m[1][0] * d[0] + m[1][1] * d[1],
+    ];
+    let len = t[0].hypot(t[1]);
+    (p, [t[1] / len, -t[0] / len], len, xs)
+}
+
+/// J A for the sub-triangle's map (identity A on triangles returns J itself).
+#[inline]
+pub fn compose(j: &Jacobian, a: [[f64; 2]; 2]) -> Jacobian {
+    if a == [[1.0, 0.0], [0.0, 1.0]] {
+        return *j;
+    }
+    let m = j.matrix;
+    Jacobian::new([
+        [
+            m[0][0] * a[0][0] + m[0][1] * a[1][0],
+            m[0][0] * a[0][1] + m[0][1] * a[1][1],
+        ],
+        [
+            m[1][0] * a[0][0] + m[1][1] * a[1][0],
+            m[1][0] * a[0][1] + m[1][1] * a[1][1],
+        ],
+    ])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A curved Q2 cell: the unit square with the bottom mid node pushed down.
+    fn curved_q9() -> Vec<[f64; 2]> {
+        let mut x: Vec<[f64; 2]> = super::super::quadrilateral::NODES
+            .iter()
+            .map(|p| [2.0 * p[0] + 3.0, p[1] - 1.0])
+            .collect();
+        x[4][1] -= 0.1;
+        x
+    }
+
+    #[test]
+    fn areas_and_perimeters_match_hand_values() {
+        // Area of the curved cell: 2 − ∫ parabola bump = 2 + 2·(2/3)·0.1 (the bottom edge
+        // bulges outward by 0.1 at its middle; ∫_0^2 0.1·4s(1−s) dx with x = 2s is 2·0.1·2/3).
+        let x = curved_q9();
+        for deg in [3, 5, 9] {
+            let mut cv = CellValues::new(table(Family::Quad9, deg, false));
+            cv.reinit(&x, false);
+            let area: f64 = cv.jxw.iter().sum();
+            assert!((area - (2.0 + 0.4 / 3.0)).abs() < 1e-13, "{deg}: {area}");
+            // The split rule integrates the same polynomial area.
+            let mut cs = CellValues::new(table(Family::Quad9, deg + 2, true));
+            cs.reinit(&x, false);
+            let a2: f64 = cs.jxw.iter().sum();
+            assert!((a2 - area).abs() < 1e-13);
+        }
+        // ∫ div(x) = 2·area = ∮ x·n ds over the four edges.
+        let r = line_rule(20);
+        let mut flux = 0.0;
+        for k in 0..4 {
+            for (&s, &w) in r.points.iter().zip(&r.weights) {
+                let f = facet_point(Family::Quad9, &x, k, s);
+                flux += w * f.ds * (f.x[0] * f.normal[0] + f.x[1] * f.normal[1]);
+            }
+        }
+        assert!((flux - 2.0 * (2.0 + 0.4 / 3.0)).abs() < 1e-12, "{flux}");
+    }
+
+    #[test]
+    fn gradients_reproduce_linear_fields_on_every_family() {
+        for f in Family::ALL {
+            let x: Vec<[f64; 2]> = f
+                .reference_nodes()
+                .iter()
+                .map(|p| [1.0 + 2.0 * p[0] + 0.3 * p[1], -1.0 + 0.2 * p[0] + 1.5 * p[1] + 0.1 * p[0] * p[1]])
+                .collect();
+            let u: Vec<[f64; 2]> = x.iter().map(|p| [3.0 * p[0] - p[1], 0.5 * p[1] + 2.0]).collect();
+            let mut cv = CellValues::new(table(f, 4, false));
+            cv.reinit(&x, false);
+            for q in 0..cv.len() {
+                let g = cv.gradient2(q, &u);
+                assert!((g[0][0] - 3.0).abs() < 1e-12 && (g[0][1] + 1.0).abs() < 1e-12);
+                assert!(g[1][0].abs() < 1e-12 && (g[1][1] - 0.5).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn sub_triangles_tile_the_square_along_the_parent_edges() {
+        let f = Family::Quad4;
+        for k in 0..2 {
+            let v = sub_vertices(f, k);
+            let (a, b) = sub_map(f, k);
+            for (j, &p) in [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]].iter().enumerate() {
+                assert_eq!(apply(a, b, p), super::super::quadrilateral::NODES[v[j]]);
+            }
+            for e in 0..3 {
+                if let Some(pe) = sub_edge_parent(f, k, e) {
+                    for s in [0.0, 0.3, 1.0] {
+                        let p = apply(a, b, crate::geometry::edge::edge_reference_point(e, s));
+                        assert_eq!(p, f.edge_point(pe, s));
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,92 @@
+//! Every tolerance and fixed numerical choice of fosls, with the reason for its value
+//! (docs/design.md §4–§5). Nothing else in the library writes a bare tolerance literal.
+
+/// Planar meshes: z may vary by this times the largest |x|, |y| (writers that store z = 0
+/// exactly, or a constant z plane, pass; a tilted mesh does not).
+pub const PLANAR_RELATIVE: f64 = 1e-12;
+
+/// A cell is degenerate when |det J| at its vertices is at most this times h_T² (h_T its
+/// diameter): collinear vertices give round-off sized areas, valid slivers of aspect 1e4 have
+/// 1e-4·h_T².
+pub const DEGENERATE_AREA_RELATIVE: f64 = 1e-12;
+
+/// A high-order node off its straight (affine or bilinear) position by more than this times
+/// h_T makes the cell curved, and a quadrilateral whose vertices miss a parallelogram by more
+/// makes it bilinear (docs/design.md §4.3). ASCII files with 12 significant digits perturb
+/// straight cells by about 1e-12 absolute, i.e. ~1e-10 h_T on meshes with h ≥ 1e-2 and up to
+/// ~1e-8 h_T at h = 1e-4; a mid node on a circle of radius R is off by h²/(8R), ≥ 1e-4 h_T for
+/// every h ≥ 1e-3 R. 1e-6 separates the two by two orders of magnitude on either side.
+pub const CURVED_RELATIVE: f64 = 1e-6;
+
+/// Node copies of an exploded mesh closer than this times the shortest edge of the cells that
+/// hold them are one node: writers copy coordinates bit-exactly or to ~1e-12 (ASCII), while
+/// distinct nodes are at least an edge apart.
+pub const MERGE_RELATIVE: f64 = 1e-6;
+
+/// Relative tolerance (of the array's largest magnitude) under which two stress components are
+/// taken as equal at a point, for the ambiguity test of 4-component arrays.
+pub const EQUAL_COMPONENTS: f64 = 1e-12;
+
+/// A nodal stress counts as symmetric when |σ_xy − σ_yx| ≤ this times max |σ| (round-off of an
+/// L² projection or of a 9-component tensor written in single steps).
+pub const SYMMETRY_RELATIVE: f64 = 1e-12;
+
+/// Relative size below which σ_n (or 𝔉|σ_n| − |σ_t|) counts as zero when classifying the
+/// contact state, relative to the largest |σ_n| on Γ_C: round-off must not make zones.
+pub const STATE_RELATIVE: f64 = 1e-10;
+
+/// Relative size (of max |u_h| on Γ_C) below which an open gap counts as closed when
+/// classifying the contact state: looser than [`STATE_RELATIVE`] because P2 displacements
+/// constrained at the nodes only (active-set solvers, projections) leave gaps of that order
+/// between the nodes of curved contact edges.
+pub const GAP_RELATIVE: f64 = 1e-6;
+
+/// Relative size below which a violation counts as round-off (of max |u_h| for displacement
+/// checks, of max |σ_h| for stress checks) when deciding whether a hypothesis holds.
+pub const ADMISSIBLE_RELATIVE: f64 = 1e-10;
+
+/// Coulomb coefficients below this are reconstructed with τ_t = 0 (the cone's axis, which is
+/// admissible) instead of the cone variables w₁,₂ = ±τ_t + 𝔉τ_n: those map to τ_n with the
+/// factor 1/(2𝔉), which multiplies the condition number by about 𝔉⁻², and at 𝔉 = 1e-8 breaks
+/// the factorisation. The price is a friction term larger by at most 𝔉 ∫ |τ_n| |u_t|.
+pub const MIN_CONE_FRICTION: f64 = 1e-6;
+
+/// Quadrature degree of the interior terms on curved (and bilinear) cells, where the
+/// integrands are rational: degree 10 resolves them to ~1e-12 relative for the curvatures of
+/// boundary-fitted meshes (checked against degree 20 in the tests).
+pub const CURVED_DEGREE: usize = 10;
+
+/// Extra degree on bilinear quadrilaterals over the polynomial degree of the integrand on
+/// parallelograms: 1/det J is smooth there, and four more orders keep the error of the rational
+/// integrand below 1e-12 for aspect ratios up to ~10.
+pub const BILINEAR_EXTRA_DEGREE: usize = 4;
+
+/// Gauss–Legendre degree per piece of a boundary edge (20 points): exact for the degree-≤ 8
+/// polynomial integrands of P2 data with a wide margin for curved edges and gap expressions
+/// (boundary edges are few).
+pub const EDGE_DEGREE: usize = 39;
+
+/// Gauss–Legendre degree on contact edges for the loads of the displacement reconstruction:
+/// the P2 × P2 × (curved) length-element integrands with a margin; |σ_n| is smooth for σ_n of
+/// one sign.
+pub const EDGE_DEGREE_NODAL: usize = 19;
+
+/// Uniform samples per edge for bracketing zeros and maxima of boundary quantities.
+pub const EDGE_SAMPLES: usize = 32;
+
+/// A coefficient of a quadratic whose magnitude is below this times the scale of the other
+/// coefficients counts as zero when solving for the roots in closed form.
+pub const QUADRATIC_DEGENERATE: f64 = 1e-14;
+
+/// Cap on active-set changes of the QP solver.
+pub const MAX_ACTIVE_SET_ITERATIONS: usize = 200;
+
+/// Diagonal regularisation (relative to the largest diagonal entry) of the split friction
+/// unknowns a, b ≥ 0 of the displacement reconstruction, removed by a final solve.
+pub const SPLIT_REGULARISATION: f64 = 1e-10;
+
+/// Values below this times the field's scale count as zero in the friction remedy's sign test.
+pub const SIGN_ROUNDOFF: f64 = 1e-12;
+
+/// Pivot floor of the Jacobi scaling (relative to the largest diagonal entry).
+pub const PIVOT_FLOOR: f64 = 1e-12;
