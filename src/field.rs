@@ -3,7 +3,7 @@
 //! on the cells' sub-triangles (docs/design.md §5.4).
 
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
-use crate::geometry::values::{compose, locate_sub, sub_count, sub_map};
+use crate::geometry::values::{locate_sub, sub_count, sub_point};
 use crate::geometry::{Jacobian, MAX_NODES};
 use crate::mesh::Mesh;
 
@@ -37,19 +37,13 @@ impl RtStress {
         (s, div)
     }
 
-    /// σ and div σ at parent reference point `xi` of cell `t` with parent Jacobian `jac`
-    /// there: the sub-triangle holding ξ is found first.
+    /// σ and div σ at the image of parent reference point `xi` of cell `t`: the
+    /// sub-triangle holding it is found first ([`locate_sub`]).
     #[inline]
-    pub fn at_parent(
-        &self,
-        mesh: &Mesh,
-        t: usize,
-        jac: &Jacobian,
-        xi: [f64; 2],
-    ) -> ([f64; 4], [f64; 2]) {
+    pub fn at_parent(&self, mesh: &Mesh, t: usize, xi: [f64; 2]) -> ([f64; 4], [f64; 2]) {
         let f = mesh.family[t];
-        let (k, xs) = locate_sub(f, xi);
-        let js = compose(jac, sub_map(f, k).0);
+        let x = mesh.coords(t);
+        let (k, xs, js) = locate_sub(f, &x[..f.nodes()], mesh.shape[t], xi);
         self.at(self.first[t] as usize + k, &js, xs)
     }
 
@@ -84,7 +78,7 @@ impl StressField<'_> {
                     (0..sub_count(f))
                         .map(|k| {
                             let c = [1.0 / 3.0, 1.0 / 3.0];
-                            let js = crate::geometry::values::sub_point(f, &x, k, c).jac;
+                            let js = sub_point(f, &x[..f.nodes()], mesh.shape[t], k, c).jac;
                             let (s, _) = rt.at(rt.first[t] as usize + k, &js, c);
                             s.iter().fold(0.0f64, |m, v| m.max(v.abs()))
                         })
@@ -121,12 +115,13 @@ impl StressField<'_> {
             }
             StressField::Rt(rt) => {
                 let table = cv.table;
-                if table.sub.is_empty() {
-                    rt.at(rt.first[t] as usize, &cv.jac[q], table.points[q])
-                } else {
+                // Split tables hold the sub-triangles' Jacobians and coordinates (triangle
+                // tables are their own sub-triangle).
+                if table.family.is_quad() {
                     let k = table.sub[q] as usize;
-                    let js = compose(&cv.jac[q], sub_map(table.family, k).0);
-                    rt.at(rt.first[t] as usize + k, &js, table.sub_points[q])
+                    rt.at(rt.first[t] as usize + k, &cv.jac[q], table.sub_points[q])
+                } else {
+                    rt.at(rt.first[t] as usize, &cv.jac[q], table.points[q])
                 }
             }
         }

@@ -85,7 +85,14 @@ fn add_reconstructed(
             let mut s = [0.0; 4];
             for k in 0..subs {
                 let c = [1.0 / 3.0, 1.0 / 3.0];
-                let js = fosls::geometry::values::sub_point(fam, &x, k, c).jac;
+                let js = fosls::geometry::values::sub_point(
+                    fam,
+                    &x[..fam.nodes()],
+                    data.mesh.shape[t],
+                    k,
+                    c,
+                )
+                .jac;
                 let (v, _) = r.stress.at(r.stress.first[t] as usize + k, &js, c);
                 for m in 0..4 {
                     s[m] += v[m] / subs as f64;

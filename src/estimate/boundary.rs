@@ -109,7 +109,7 @@ impl<'a> EdgeFields<'a> {
         let fp = facet_point(self.family, &self.x[..n], self.local, s);
         let mut sigma = [0.0; 4];
         match self.rt {
-            Some(rt) => sigma = rt.at_parent(self.mesh, self.cell, &fp.jac, fp.xi).0,
+            Some(rt) => sigma = rt.at_parent(self.mesh, self.cell, fp.xi).0,
             None => {
                 for k in 0..n {
                     for m in 0..4 {

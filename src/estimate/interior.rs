@@ -104,7 +104,7 @@ fn cell(
             s[k] = sv[p as usize];
         }
     }
-    cv.reinit(&x[..nodes.len()], mesh.is_affine(t));
+    cv.reinit(&x[..nodes.len()], mesh.shape[t]);
 
     let (mut c, mut d, mut e) = (0.0, 0.0, 0.0);
     for q in 0..cv.len() {

@@ -191,6 +191,10 @@ pub struct CellValues {
     pub jac: Vec<Jacobian>,
     /// ∇φ_i(x_q) = J^{−T} ∇̂φ_i(ξ_q).
     pub grad: Vec<[[f64; 2]; MAX_NODES]>,
+    /// Split tables: the parent's shape values at each point (the table's are those of the
+    /// reference correspondence, exact only on parallelograms); `jac` holds the
+    /// sub-triangles' Jacobians there.
+    phi_split: Vec<[f64; MAX_NODES]>,
 }
 
 impl CellValues {
@@ -203,14 +207,32 @@ impl CellValues {
             jxw: vec![0.0; nq],
             jac: vec![Jacobian::new([[1.0, 0.0], [0.0, 1.0]]); nq],
             grad: vec![[[0.0; 2]; MAX_NODES]; nq],
+            phi_split: if table.sub.is_empty() || !table.family.is_quad() {
+                Vec::new()
+            } else {
+                vec![[0.0; MAX_NODES]; nq]
+            },
         }
     }
 
-    /// Fills the values for the cell with node coordinates `coords`; `affine` cells (constant
-    /// J, decided once by the mesh) evaluate J once.
-    pub fn reinit(&mut self, coords: &[[f64; 2]], affine: bool) {
+    /// Fills the values for the cell with node coordinates `coords` and shape `shape`
+    /// (decided once by the mesh); affine cells evaluate J once. On a split table the points
+    /// are those of the sub-triangles ([`sub_point`]), weighted by their det J.
+    pub fn reinit(&mut self, coords: &[[f64; 2]], shape: Shape) {
         let t = self.table;
         let n = self.n;
+        if !self.phi_split.is_empty() {
+            for q in 0..t.len() {
+                let sp = sub_point(t.family, coords, shape, t.sub[q] as usize, t.sub_points[q]);
+                self.jac[q] = sp.jac;
+                self.jxw[q] = t.weights[q] * sp.jac.det;
+                self.x[q] = sp.x;
+                self.grad[q] = sp.grad;
+                self.phi_split[q] = sp.phi;
+            }
+            return;
+        }
+        let affine = shape == Shape::Affine;
         let fixed = affine.then(|| jacobian(coords, n, &t.gradients[0]));
         for q in 0..t.len() {
             let jac = fixed.unwrap_or_else(|| jacobian(coords, n, &t.gradients[q]));
@@ -238,7 +260,11 @@ impl CellValues {
     /// Shape values at point q.
     #[inline]
     pub fn phi(&self, q: usize) -> &[f64; MAX_NODES] {
-        &self.table.values[q]
+        if self.phi_split.is_empty() {
+            &self.table.values[q]
+        } else {
+            &self.phi_split[q]
+        }
     }
 
     /// Σ_i v_i φ_i(x_q) of a vector field with nodal values `v`.
@@ -345,9 +371,14 @@ pub fn facet_point(family: Family, x: &[[f64; 2]], k: usize, s: f64) -> FacetPoi
 }
 
 /// A triangle of the fixed sub-triangulation that carries RT fields (docs/design.md §5.4):
-/// the whole cell for a triangle; for a quadrilateral, half 0 with vertices (0, 1, 2) or
-/// half 1 with vertices (0, 2, 3). Its map is the parent's restricted to the half:
-/// ξ_parent = b + A ξ_sub, so J_sub = J_parent A.
+/// the whole cell for a triangle; for a quadrilateral, half 0 through the vertices (0, 1, 2)
+/// or half 1 through (0, 2, 3), cut along the straight diagonal from vertex 0 to vertex 2. A
+/// half is a triangle of its own: straight (its three vertices) when the quadrilateral has
+/// straight edges, isoparametric P2 when it is curved, with the quadrilateral's edge nodes on
+/// its two outer edges and the chord midpoint on the diagonal. P2 traces are the same curves
+/// as the quadrilateral's (three nodes, the same quadratic parametrisation), so the halves
+/// tile the cell exactly, and RT_k on them contains every polynomial field of degree ≤ k on
+/// straight cells, whatever the quadrilateral's bilinear distortion.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SubCell {
     pub parent: u32,
@@ -370,7 +401,8 @@ pub const fn sub_vertices(family: Family, k: usize) -> [usize; 3] {
     }
 }
 
-/// (A, b) of ξ_parent = b + A ξ_sub for sub-triangle `k`.
+/// (A, b) of the reference correspondence ξ_parent = b + A ξ_sub of half `k` (exact on
+/// parallelograms, the starting guess of the inverse map otherwise).
 #[inline]
 pub const fn sub_map(family: Family, k: usize) -> ([[f64; 2]; 2], [f64; 2]) {
     if family.is_quad() {
@@ -400,20 +432,61 @@ pub const fn sub_edge_parent(family: Family, k: usize, e: usize) -> Option<usize
     }
 }
 
-/// The sub-triangle holding parent point ξ and the coordinate there: ξ_sub = A⁻¹(ξ − b).
-/// On a quadrilateral half 0 is {η ≤ ξ}, half 1 {η ≥ ξ}.
+/// The family and node coordinates of sub-triangle `k` of the cell of `family` with nodes `x`
+/// (`curved`: the cell has a curved edge).
 #[inline]
-pub fn locate_sub(family: Family, xi: [f64; 2]) -> (usize, [f64; 2]) {
+pub fn sub_nodes(
+    family: Family,
+    x: &[[f64; 2]],
+    curved: bool,
+    k: usize,
+) -> (Family, [[f64; 2]; 6]) {
+    let mut y = [[0.0; 2]; 6];
     if !family.is_quad() {
-        return (0, xi);
+        y[..family.nodes()].copy_from_slice(&x[..family.nodes()]);
+        return (family, y);
     }
-    if xi[1] <= xi[0] {
-        // A₀⁻¹ = [[1, −1], [0, 1]].
-        (0, [xi[0] - xi[1], xi[1]])
+    let v = sub_vertices(family, k);
+    for j in 0..3 {
+        y[j] = x[v[j]];
+    }
+    if !curved {
+        return (Family::Tri3, y);
+    }
+    let chord = [0.5 * (x[0][0] + x[2][0]), 0.5 * (x[0][1] + x[2][1])];
+    // Mid nodes of the half's edges (v0, v1), (v1, v2), (v2, v0).
+    let mids = if k == 0 {
+        [x[4], x[5], chord]
     } else {
-        // A₁⁻¹ = [[1, 0], [−1, 1]].
-        (1, [xi[0], xi[1] - xi[0]])
+        [chord, x[6], x[7]]
+    };
+    y[3..6].copy_from_slice(&mids);
+    (Family::Tri6, y)
+}
+
+/// The reference point ξ of the cell of `family` with nodes `x` whose image is `target`, by
+/// Newton's method from `guess`: ξ ← ξ − J(ξ)⁻¹ (x(ξ) − target), until the step is below
+/// [`tolerance::INVERSE_MAP_STEP`] (quadratic convergence from the reference correspondence;
+/// at most [`tolerance::INVERSE_MAP_ITERATIONS`] steps).
+pub fn invert(family: Family, x: &[[f64; 2]], target: [f64; 2], guess: [f64; 2]) -> [f64; 2] {
+    let n = family.nodes();
+    let mut xi = guess;
+    for _ in 0..tolerance::INVERSE_MAP_ITERATIONS {
+        let (phi, g) = family.shape(xi);
+        let p = position(x, n, &phi);
+        let j = jacobian(x, n, &g);
+        let r = [p[0] - target[0], p[1] - target[1]];
+        let m = j.inverse;
+        let d = [
+            m[0][0] * r[0] + m[0][1] * r[1],
+            m[1][0] * r[0] + m[1][1] * r[1],
+        ];
+        xi = [xi[0] - d[0], xi[1] - d[1]];
+        if !(d[0].abs().max(d[1].abs()) > tolerance::INVERSE_MAP_STEP) {
+            break;
+        }
     }
+    xi
 }
 
 /// Geometry at a point of a sub-triangle.
@@ -422,19 +495,35 @@ pub struct SubPoint {
     pub x: [f64; 2],
     /// The parent's reference point.
     pub xi: [f64; 2],
-    /// J_parent A: the sub-triangle's Jacobian (Piola map of RT fields).
+    /// The sub-triangle's Jacobian (the Piola map of RT fields).
     pub jac: Jacobian,
     /// The parent's shape values and physical gradients there.
     pub phi: [f64; MAX_NODES],
     pub grad: [[f64; 2]; MAX_NODES],
 }
 
-/// Geometry at ξ_sub of sub-triangle `k` of the cell of `family` with nodes `x`.
+/// Geometry at ξ_sub of sub-triangle `k` of the cell of `family` with nodes `x`; `shape` is
+/// the cell's ([`crate::mesh::Mesh::shape`]).
 #[inline]
-pub fn sub_point(family: Family, x: &[[f64; 2]], k: usize, xi_sub: [f64; 2]) -> SubPoint {
-    let (a, b) = sub_map(family, k);
-    let xi = apply(a, b, xi_sub);
+pub fn sub_point(
+    family: Family,
+    x: &[[f64; 2]],
+    shape: Shape,
+    k: usize,
+    xi_sub: [f64; 2],
+) -> SubPoint {
     let n = family.nodes();
+    let (sf, y) = sub_nodes(family, x, shape == Shape::Curved, k);
+    let (sphi, sg) = sf.shape(xi_sub);
+    let js = jacobian(&y, sf.nodes(), &sg);
+    let xp = position(&y, sf.nodes(), &sphi);
+    let (a, b) = sub_map(family, k);
+    let guess = apply(a, b, xi_sub);
+    let xi = if !family.is_quad() || shape == Shape::Affine {
+        guess
+    } else {
+        invert(family, x, xp, guess)
+    };
     let (phi, g) = family.shape(xi);
     let jp = jacobian(x, n, &g);
     let mut grad = [[0.0; 2]; MAX_NODES];
@@ -442,9 +531,9 @@ pub fn sub_point(family: Family, x: &[[f64; 2]], k: usize, xi_sub: [f64; 2]) -> 
         grad[i] = jp.physical_gradient(g[i]);
     }
     SubPoint {
-        x: position(x, n, &phi),
+        x: xp,
         xi,
-        jac: compose(&jp, a),
+        jac: js,
         phi,
         grad,
     }
@@ -456,12 +545,13 @@ pub fn sub_point(family: Family, x: &[[f64; 2]], k: usize, xi_sub: [f64; 2]) -> 
 pub fn sub_edge_point(
     family: Family,
     x: &[[f64; 2]],
+    shape: Shape,
     k: usize,
     l: usize,
     s: f64,
 ) -> (SubPoint, [f64; 2], f64, [f64; 2]) {
     let xs = super::edge::edge_reference_point(l, s);
-    let p = sub_point(family, x, k, xs);
+    let p = sub_point(family, x, shape, k, xs);
     let d = Family::Tri3.edge_tangent(l);
     let m = p.jac.matrix;
     let t = [
@@ -472,23 +562,41 @@ pub fn sub_edge_point(
     (p, [t[1] / len, -t[0] / len], len, xs)
 }
 
-/// J A for the sub-triangle's map (identity A on triangles returns J itself).
-#[inline]
-pub fn compose(j: &Jacobian, a: [[f64; 2]; 2]) -> Jacobian {
-    if a == [[1.0, 0.0], [0.0, 1.0]] {
-        return *j;
+/// The sub-triangle holding the image of parent reference point ξ, its coordinate there and
+/// its Jacobian. A quadrilateral's half 0 holds vertex 1: the points right of (or on) the
+/// diagonal from vertex 0 to vertex 2.
+pub fn locate_sub(
+    family: Family,
+    x: &[[f64; 2]],
+    shape: Shape,
+    xi: [f64; 2],
+) -> (usize, [f64; 2], Jacobian) {
+    if !family.is_quad() {
+        let (_, g) = family.shape(xi);
+        return (0, xi, jacobian(x, family.nodes(), &g));
     }
-    let m = j.matrix;
-    Jacobian::new([
-        [
-            m[0][0] * a[0][0] + m[0][1] * a[1][0],
-            m[0][0] * a[0][1] + m[0][1] * a[1][1],
-        ],
-        [
-            m[1][0] * a[0][0] + m[1][1] * a[1][0],
-            m[1][0] * a[0][1] + m[1][1] * a[1][1],
-        ],
-    ])
+    let (phi, _) = family.shape(xi);
+    let p = position(x, family.nodes(), &phi);
+    let d = [x[2][0] - x[0][0], x[2][1] - x[0][1]];
+    let r = [p[0] - x[0][0], p[1] - x[0][1]];
+    let k = if d[0] * r[1] - d[1] * r[0] <= 0.0 { 0 } else { 1 };
+    let (sf, y) = sub_nodes(family, x, shape == Shape::Curved, k);
+    // ξ_sub from the straight triangle of the half's vertices, refined on a curved half.
+    let (a0, a1, a2) = (y[0], y[1], y[2]);
+    let j0 = Jacobian::new([
+        [a1[0] - a0[0], a2[0] - a0[0]],
+        [a1[1] - a0[1], a2[1] - a0[1]],
+    ]);
+    let m = j0.inverse;
+    let mut xs = [
+        m[0][0] * (p[0] - a0[0]) + m[0][1] * (p[1] - a0[1]),
+        m[1][0] * (p[0] - a0[0]) + m[1][1] * (p[1] - a0[1]),
+    ];
+    if sf == Family::Tri6 {
+        xs = invert(sf, &y, p, xs);
+    }
+    let (_, g) = sf.shape(xs);
+    (k, xs, jacobian(&y, sf.nodes(), &g))
 }
 
 #[cfg(test)]
@@ -512,12 +620,12 @@ mod tests {
         let x = curved_q9();
         for deg in [3, 5, 9] {
             let mut cv = CellValues::new(table(Family::Quad9, deg, false));
-            cv.reinit(&x, false);
+            cv.reinit(&x, Shape::Curved);
             let area: f64 = cv.jxw.iter().sum();
             assert!((area - (2.0 + 0.4 / 3.0)).abs() < 1e-13, "{deg}: {area}");
             // The split rule integrates the same polynomial area.
             let mut cs = CellValues::new(table(Family::Quad9, deg + 2, true));
-            cs.reinit(&x, false);
+            cs.reinit(&x, Shape::Curved);
             let a2: f64 = cs.jxw.iter().sum();
             assert!((a2 - area).abs() < 1e-13);
         }
@@ -543,7 +651,7 @@ mod tests {
                 .collect();
             let u: Vec<[f64; 2]> = x.iter().map(|p| [3.0 * p[0] - p[1], 0.5 * p[1] + 2.0]).collect();
             let mut cv = CellValues::new(table(f, 4, false));
-            cv.reinit(&x, false);
+            cv.reinit(&x, Shape::Curved);
             for q in 0..cv.len() {
                 let g = cv.gradient2(q, &u);
                 assert!((g[0][0] - 3.0).abs() < 1e-12 && (g[0][1] + 1.0).abs() < 1e-12);

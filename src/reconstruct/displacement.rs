@@ -15,7 +15,7 @@
 use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
 use crate::field::StressField;
 use crate::geometry::values::{interior_table, rule_degree};
-use crate::geometry::{CellValues, Family, Jacobian, MAX_NODES, Shape, Table, facet_point, table};
+use crate::geometry::{CellValues, Family, MAX_NODES, Shape, Table, facet_point, table};
 use crate::material::Elastic;
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition};
@@ -143,7 +143,7 @@ fn stiffness(mesh: &Mesh, a: f64, b: f64) -> (Vec<(usize, usize, f64)>, Vec<f64>
         let nn = nodes.len();
         let x = mesh.coords(t);
         let cv = tables.get(mesh, t);
-        cv.reinit(&x[..nn], mesh.is_affine(t));
+        cv.reinit(&x[..nn], mesh.shape[t]);
         let mut k = vec![0.0; 4 * nn * nn];
         for q in 0..cv.len() {
             let wd = cv.jxw[q];
@@ -675,12 +675,11 @@ fn stress_at(
     mesh: &Mesh,
     sigma: StressField,
     t: usize,
-    jac: &Jacobian,
     xi: [f64; 2],
     phi: &[f64; MAX_NODES],
 ) -> [f64; 4] {
     match sigma {
-        StressField::Rt(rt) => rt.at_parent(mesh, t, jac, xi).0,
+        StressField::Rt(rt) => rt.at_parent(mesh, t, xi).0,
         StressField::Nodal(values) => {
             let mut s = [0.0; 4];
             for (k, &p) in mesh.nodes(t).iter().enumerate() {
@@ -740,7 +739,7 @@ fn volume_load(mesh: &Mesh, sigma: StressField, el: &Elastic, a: f64, b: f64) ->
             }
         }
         let cv = tables.get(mesh, t);
-        cv.reinit(&x[..nn], mesh.is_affine(t));
+        cv.reinit(&x[..nn], mesh.shape[t]);
         for q in 0..cv.len() {
             let wd = cv.jxw[q];
             let e = el.compliance(sigma.at_point(cv, t, q, &sn).0);
@@ -787,7 +786,7 @@ fn contact_load(
         for (&s, &w) in rule.points.iter().zip(&rule.weights) {
             let fp = facet_point(mesh.family[t], &x[..nn], l, s);
             let (normal, len) = (fp.normal, fp.ds);
-            let sig = stress_at(mesh, inp.sigma, t, &fp.jac, fp.xi, &fp.phi);
+            let sig = stress_at(mesh, inp.sigma, t, fp.xi, &fp.phi);
             let tr = [
                 sig[0] * normal[0] + sig[1] * normal[1],
                 sig[2] * normal[0] + sig[3] * normal[1],

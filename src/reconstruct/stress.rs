@@ -131,7 +131,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         for slot in 0..order.edge_dofs() {
             let s_global = order.edge_points()[slot];
             let s = if forward { s_global } else { 1.0 - s_global };
-            let (sp, normal, len, _) = sub_edge_point(fam, &x, k, l, s);
+            let (sp, normal, len, _) = sub_edge_point(fam, &x[..fam.nodes()], mesh.shape[t], k, l, s);
             let p = sp.x;
             // Global DOF = sgn × (outward flux density of the owner).
             let sgn = if forward { 1.0 } else { -1.0 };
@@ -251,7 +251,7 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         let mut kloc = vec![0.0; nl * nl];
         let mut bloc = vec![0.0; nl];
         for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-            let sp = sub_point(fam, &x, half, xi);
+            let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[parent], half, xi);
             let jac = sp.jac;
             let w = wq * jac.det;
             // ε(u_h).
@@ -306,7 +306,8 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             };
             let lr = line_rule_cached(EDGE_DEGREE);
             for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
-                let (sp, normal, len, xi) = sub_edge_point(fam, &x, half, l, s);
+                let (sp, normal, len, xi) =
+                    sub_edge_point(fam, &x[..fam.nodes()], mesh.shape[parent], half, l, s);
                 let (v, _) = rt::piola(order, &sp.jac, xi);
                 let mut u = [0.0; 2];
                 for (k, &pn) in nodes.iter().enumerate() {

@@ -209,9 +209,7 @@ pub fn discontinuous_file(
             let s = match sigma {
                 crate::field::StressField::Nodal(v) => v[p],
                 crate::field::StressField::Rt(rt) => {
-                    let (_, g) = fam.shape(xi);
-                    let jac = crate::geometry::values::jacobian(&x[..nn], nn, &g);
-                    rt.at_parent(mesh, t, &jac, xi).0
+                    rt.at_parent(mesh, t, xi).0
                 }
             };
             stress.extend_from_slice(&tensor9(s));
