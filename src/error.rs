@@ -1,7 +1,7 @@
 //! The library's one error type.
 //!
 //! Every user-facing failure is a single line naming the file, the place in it and the problem
-//! (DESIGN.md §7, §8): `file: place: problem`. The binary maps [`Error`] to exit status 2.
+//! (docs/design.md §7, §8): `file: place: problem`. The binary maps [`Error`] to exit status 2.
 
 use std::fmt;
 use std::path::{Path, PathBuf};

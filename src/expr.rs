@@ -1,4 +1,4 @@
-//! User expressions in x, y (z) for boundary selectors, data and gaps (DESIGN.md §7).
+//! User expressions in x, y (z) for boundary selectors, data and gaps (docs/design.md §7).
 //!
 //! An [`Expr`] is parsed once from the scene file and evaluated at many points. It keeps its
 //! source text (for messages and reports) and a compiled tree in which every constant
@@ -29,7 +29,7 @@
 //!
 //! So `-2^2` = −4 and `2^3^2` = 2^9 = 512, as in mathematics (and Python, Fortran); the
 //! exponent may carry its own sign: `2^-1` = 0.5. A value is *true* when it is > 0 (NaN is
-//! false), the convention of the selectors in DESIGN.md §7 (`where = "y > 0.999"`).
+//! false), the convention of the selectors in docs/design.md §7 (`where = "y > 0.999"`).
 //! Equality (`==`, `!=`) is deliberately absent: mesh coordinates are rarely exact, so the
 //! message suggests `abs(x - 1) < 1e-9` instead.
 //!

@@ -1,4 +1,4 @@
-//! `fosls inspect`: what a VTU file holds, for a user about to write a scene (DESIGN.md §7).
+//! `fosls inspect`: what a VTU file holds, for a user about to write a scene (docs/design.md §7).
 //!
 //! Cells by type, points, every array with its range and non-finite count, candidate
 //! boundary-tag arrays with the edges each tag selects, whether the mesh is exploded or curved,
@@ -54,7 +54,12 @@ pub struct Summary {
     /// "triangle (5)" → count, for every VTK cell type present.
     pub cells_by_type: BTreeMap<String, usize>,
     pub degree: usize,
+    /// Cell family ("P2 triangle", "Q2 quadrilateral", …) → count.
+    pub families: BTreeMap<String, usize>,
+    /// Cells with an edge node off its straight position (docs/design.md §4.3).
     pub curved_cells: usize,
+    /// Straight quadrilaterals that are no parallelogram.
+    pub bilinear_cells: usize,
     pub exploded: Option<Merge>,
     /// Clockwise cells reordered counter-clockwise.
     pub reoriented: usize,
@@ -147,7 +152,12 @@ pub fn summary(file: &VtuFile, data: &Dataset, topo: &Topology) -> Summary {
         mesh_points: mesh.points.len(),
         cells_by_type,
         degree: mesh.degree,
+        families: mesh.family.iter().fold(BTreeMap::new(), |mut m, f| {
+            *m.entry(f.name().to_string()).or_insert(0) += 1;
+            m
+        }),
         curved_cells: data.report.curved_cells,
+        bilinear_cells: data.report.bilinear_cells,
         exploded: data.report.merge.clone(),
         reoriented: data.report.reoriented,
         bounding_box: mesh.bounding_box(),
@@ -200,8 +210,18 @@ pub fn render(s: &Summary) -> String {
     }
     let _ = writeln!(
         o,
-        "  mesh        P{} triangles, {} curved; {} edges, {} on the boundary ({} without a line cell)",
-        s.degree, s.curved_cells, s.edges, s.boundary_edges, s.boundary_edges_without_line
+        "  mesh        {}; {} curved, {} bilinear; {} edges, {} on the boundary ({} without a \
+         line cell)",
+        s.families
+            .iter()
+            .map(|(f, n)| format!("{n} {f}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        s.curved_cells,
+        s.bilinear_cells,
+        s.edges,
+        s.boundary_edges,
+        s.boundary_edges_without_line
     );
     let b = s.bounding_box;
     let _ = writeln!(

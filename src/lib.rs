@@ -1,5 +1,5 @@
 //! fosls: audit finite element solutions of elastic contact problems with the First-Order
-//! System Least-Squares functional (see `DESIGN.md`).
+//! System Least-Squares functional (see `docs/design.md`).
 //!
 //! The modules follow the data flow:
 //! read (VTU, scene) → mesh and fields → topology → elements and quadrature → … → report.

@@ -1,5 +1,5 @@
 //! The `fosls` binary: parse, run, map errors to exit codes (0 done, 1 threshold exceeded,
-//! 2 bad input or usage; DESIGN.md §8).
+//! 2 bad input or usage; docs/design.md §8).
 
 mod cli;
 

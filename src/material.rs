@@ -1,5 +1,5 @@
 //! Linear elasticity in 2D: the compliance A and the densities of the constitutive term and
-//! of the energy for each norm preset (DESIGN.md §2, §3).
+//! of the energy for each norm preset (docs/design.md §2, §3).
 
 use crate::read::scene::{Material, Norm};
 
@@ -44,7 +44,7 @@ impl Elastic {
         ]
     }
 
-    /// Density of the constitutive term for the mismatch e = ε(v) − Aτ (DESIGN.md §3):
+    /// Density of the constitutive term for the mismatch e = ε(v) − Aτ (docs/design.md §3):
     ///
     /// - energy: ½(Ce, e) = μ e:e + ½λ (tr e)²
     /// - robust: μ e:e
@@ -67,7 +67,7 @@ impl Elastic {
     }
 
     /// Density of the energy that F is compared with: ½(Cε, ε) = μ ε:ε + ½λ (tr ε)² for
-    /// `energy`, μ ε:ε for `robust` and `seed` (DESIGN.md §8).
+    /// `energy`, μ ε:ε for `robust` and `seed` (docs/design.md §8).
     #[inline]
     pub fn energy_density(&self, norm: Norm, eps: [f64; 4]) -> f64 {
         let ee = eps[0] * eps[0] + eps[1] * eps[1] + eps[2] * eps[2] + eps[3] * eps[3];

@@ -1,10 +1,10 @@
 //! From the file and the scene to the problem the estimator works on: the discrete fields u_h
-//! and σ_h (DESIGN.md §4) and the boundary condition of every boundary edge (DESIGN.md §2, §7).
+//! and σ_h (docs/design.md §4) and the boundary condition of every boundary edge (docs/design.md §2, §7).
 //!
 //! [`select_fields`] finds the displacement and the stress among the arrays of the solution
 //! file, decides the stress layout and stores every tensor as a full 2×2 row-major
 //! `[σxx, σxy, σyx, σyy]`. [`classify`] gives each boundary edge of the mesh the condition of
-//! the first `[[boundary]]` that selects it, or [`Condition::Free`] (traction-free, DESIGN.md
+//! the first `[[boundary]]` that selects it, or [`Condition::Free`] (traction-free, docs/design.md
 //! §7), together with the owning cell and the local edge index that orients it.
 //!
 //! Every refusal is one [`Error::Input`] line naming the file it is about: the solution file
@@ -38,12 +38,12 @@ pub const STRESS_NAMES: [&str; 5] = ["stress", "stresses", "sigma", "s", "cauchy
 /// taken as equal at a point, for the ambiguity test of 4-component arrays.
 pub const EQUAL_COMPONENTS: f64 = 1e-12;
 
-/// The discrete fields read from the solution file (DESIGN.md §4).
+/// The discrete fields read from the solution file (docs/design.md §4).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fields {
     /// u_h at each mesh point (P1 or P2 nodes, [`crate::mesh::Mesh::points`] order); a z
     /// component in the file is dropped. `None` when the file holds none but a nodal stress
-    /// (a pure stress method): the displacement is then reconstructed (DESIGN.md §4, §5).
+    /// (a pure stress method): the displacement is then reconstructed (docs/design.md §4, §5).
     pub displacement: Option<Vec<[f64; 2]>>,
     /// The point array it was read from.
     pub displacement_name: Option<String>,
@@ -56,7 +56,7 @@ pub struct Fields {
 ///
 /// Symmetric layouts fill σyx = σxy; layouts that store both (9 components, a 2×2 `xx,xy,yx,yy`)
 /// keep them apart, so that a non-symmetric stress is audited as it is. σzz and out-of-plane
-/// shear are not kept: the functional of DESIGN.md §3 is two-dimensional.
+/// shear are not kept: the functional of docs/design.md §3 is two-dimensional.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Stress {
     /// One tensor per mesh point: a continuous P1/P2 nodal stress.
@@ -68,7 +68,7 @@ pub enum Stress {
         layout: String,
     },
     /// One tensor per triangle ([`crate::mesh::Mesh::triangles`] order): piecewise constant,
-    /// not H(div)-conforming (DESIGN.md §4: reconstruct).
+    /// not H(div)-conforming (docs/design.md §4: reconstruct).
     Cell {
         values: Vec<[f64; 4]>,
         /// The cell array.
@@ -76,7 +76,7 @@ pub enum Stress {
         /// The layout used, e.g. `xx,yy,zz,xy`.
         layout: String,
     },
-    /// No stress in the file (DESIGN.md §4: reconstruct).
+    /// No stress in the file (docs/design.md §4: reconstruct).
     Absent,
 }
 
@@ -106,11 +106,11 @@ impl fmt::Display for Place<'_> {
 /// `[fields] displacement`, else the one point array named like [`DISPLACEMENT_NAMES`] with 2
 /// or 3 components; none found and a nodal stress present gives `None`. A third (z) component is
 /// dropped, with a note giving max |u_z| when it is not zero everywhere: fosls audits the
-/// plane problem (DESIGN.md §2).
+/// plane problem (docs/design.md §2).
 ///
 /// **Stress** (optional): the point or cell array `[fields] stress`, else the one point array
 /// named like [`STRESS_NAMES`], else the one such cell array, else [`Stress::Absent`]. Cell
-/// arrays are read on the triangles only. The layout (DESIGN.md §4) is, in this order:
+/// arrays are read on the triangles only. The layout (docs/design.md §4) is, in this order:
 ///
 /// 1. `[fields] stress_layout`, whose length must be the component count;
 /// 2. the `ComponentName` attributes, when every component has one and all are recognised:
@@ -596,7 +596,7 @@ fn short(v: f64) -> String {
 /// The condition on one boundary edge; the index is into [`Scene::boundaries`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Condition {
-    /// Selected by no `[[boundary]]`: traction-free, σn = 0 (DESIGN.md §7).
+    /// Selected by no `[[boundary]]`: traction-free, σn = 0 (docs/design.md §7).
     Free,
     /// u = u_D.
     Dirichlet(usize),
@@ -665,7 +665,7 @@ impl Boundaries {
     }
 }
 
-/// Gives every boundary edge its condition (DESIGN.md §7).
+/// Gives every boundary edge its condition (docs/design.md §7).
 ///
 /// - `tag = v` selects the edges of the line cells whose value in the tag array
 ///   ([`Scene::tag_array_name`], cell data on the line cells) is v. A tagged line cell on an

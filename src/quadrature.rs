@@ -1,6 +1,6 @@
 //! Quadrature rules on the reference triangle and the reference edge.
 //!
-//! DESIGN.md §3 asks for rules that integrate the polynomial parts of the functional exactly
+//! docs/design.md §3 asks for rules that integrate the polynomial parts of the functional exactly
 //! (degree 2k+2 on elements for RT_k × P_{k+1}) and rules of order ≥ 2k+4 on contact edges.
 //! This module supplies, for any requested degree p:
 //!

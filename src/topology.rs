@@ -4,7 +4,7 @@
 //! `a` to `b`. Local edge `k` of a triangle joins local vertices `k` and `(k + 1) % 3` (VTK's
 //! order, matching mid-edge node `3 + k`); `cell_edge_sign[t][k]` is +1 when the local direction
 //! agrees with the global one. Shared orientation is what makes the normal degrees of freedom
-//! of H(div) elements (DESIGN.md §4) single-valued across cells.
+//! of H(div) elements (docs/design.md §4) single-valued across cells.
 
 use rayon::prelude::*;
 

@@ -121,7 +121,7 @@ fn hertz_a(p: f64, e: f64, nu: f64) -> f64 {
     (4.0 * p / (std::f64::consts::PI * e / (1.0 - nu * nu))).sqrt()
 }
 
-/// DESIGN.md / issue: on the NGSolve penalty Hertz solution (P2, curved) the normal force is
+/// docs/design.md / issue: on the NGSolve penalty Hertz solution (P2, curved) the normal force is
 /// within 1 % of the reaction at the top, the active length within 3 % of 2a, and the
 /// penetration is reported. The coarse P1 solution's projected stress misses P by 1.2 %
 /// (the harness measures the same), so there only 2 % is asked.

@@ -1,4 +1,4 @@
-//! Extremes (DESIGN.md §9 layer 6): the real binary on exact polynomial solutions written
+//! Extremes (docs/design.md §9 layer 6): the real binary on exact polynomial solutions written
 //! in-process, at the edges of the parameter space, each result checked against the exact value
 //! (F = 0) or a value derived by hand below.
 //!
@@ -27,7 +27,7 @@
 //! - friction 𝔉⟨|σ_n|, |u_t|⟩ + ⟨σ_t, u_t⟩ = 𝔉 |∫ (a₀ + a₁x)(b₁x + b₂x²)| when u_t keeps one
 //!   sign on (0, 2] (checked), = 𝔉 |2a₀b₁ + 8/3 a₀b₂ + 8/3 a₁b₁ + 4a₁b₂|;
 //! - a constant perturbation D of σ_xx adds Aδ = D/(2μ) (1 − ν, −ν) (plane strain: the c of
-//!   DESIGN.md §2 is λ/(2μ + 2λ) = ν), so the constitutive term is ½ D²(1 − ν)/(2μ) · |Ω|
+//!   docs/design.md §2 is λ/(2μ + 2λ) = ν), so the constitutive term is ½ D²(1 − ν)/(2μ) · |Ω|
 //!   (energy) and μ (D/2μ)² ((1 − ν)² + ν²) · |Ω| (robust), and nothing else changes.
 //!
 //! The other sides carry the exact displacement as Dirichlet data (expressions), so the exact

@@ -1,4 +1,4 @@
-//! Stress reconstruction end to end (DESIGN.md §5): the real binary with
+//! Stress reconstruction end to end (docs/design.md §5): the real binary with
 //! `--stress reconstruct`, its JSON parsed with serde.
 
 use std::path::PathBuf;

@@ -86,7 +86,7 @@ def readme(name, c, sol, exp):
            else "`where` selectors at edge mid points (line cells present, no tag array)")
     txt = f"""# {name}
 
-Block on a plane (DESIGN.md §9, the talk's "straight boundaries" example): [-1,1]x[0,1] on the rigid plane
+Block on a plane (docs/design.md §9, the talk's "straight boundaries" example): [-1,1]x[0,1] on the rigid plane
 y = 0 (gap 0 on the whole bottom), u = (0, -0.01) on the top, sides traction-free; E = 20600, nu = 0.28,
 plane strain, {'Coulomb friction ' + str(fr) if fr else 'frictionless'}. Gamma_C = bottom; normal = {c['normal'] or 'body (default, not written)'}.
 

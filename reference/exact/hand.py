@@ -8,7 +8,7 @@ t = (1, 0), g = y = 0: obstacle plane y = 0).  |.| in the friction term is integ
 between the given break points (where v_t or tau_n change sign); the sign on each piece is taken
 at its midpoint.  Only the final sums are rounded to float.
 
-Formulas (DESIGN.md §3): e = eps(v) - A tau, A tau = (tau - c tr(tau) I)/(2 mu),
+Formulas (docs/design.md §3): e = eps(v) - A tau, A tau = (tau - c tr(tau) I)/(2 mu),
 c = lam/(2 mu + 2 lam) (1/2 for lam = inf); r = div tau + f.
   energy: mu |e|^2 + lam/2 (tr e)^2,  robust: mu |e|^2,  seed: |e|^2 / 2
   equilibrium: w_d/2 |r|^2 (seed: w_d = 1)

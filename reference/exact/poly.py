@@ -142,7 +142,7 @@ class Poly:
 
     # -- text --
     def expr(self):
-        """Expression string of the DESIGN.md §7 language with the float coefficients (repr)."""
+        """Expression string of the docs/design.md §7 language with the float coefficients (repr)."""
         if not self.c:
             return "0.0"
         parts = []

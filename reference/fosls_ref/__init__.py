@@ -1,4 +1,4 @@
-"""fosls_ref: independent Python reference for the fosls FOSLS functional (DESIGN.md §2-§8)."""
+"""fosls_ref: independent Python reference for the fosls FOSLS functional (docs/design.md §2-§8)."""
 __version__ = "0.1.0"
 
 from .errors import InputError  # noqa: F401

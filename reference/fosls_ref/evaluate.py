@@ -1,4 +1,4 @@
-"""The FOSLS functional (DESIGN.md §3), admissibility (§5) and contact measurements, for nodal
+"""The FOSLS functional (docs/design.md §3), admissibility (§5) and contact measurements, for nodal
 P1/P2 displacement and stress fields as given in the file (no reconstruction).
 
 All squares are squares of pointwise differences. Cell integrals: scikit-fem triangle rule of

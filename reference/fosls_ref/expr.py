@@ -1,4 +1,4 @@
-"""Restricted expressions in x, y (and z) for scene files (DESIGN.md §7).
+"""Restricted expressions in x, y (and z) for scene files (docs/design.md §7).
 
 Grammar: numbers, the names x, y, z, pi, the operators + - * / ^ (power, also **),
 unary -, comparisons (< <= > >= == !=, chains allowed), `and`, `or`, `not`,

@@ -1,4 +1,4 @@
-"""Scene file (TOML) of DESIGN.md §7: parsing and validation."""
+"""Scene file (TOML) of docs/design.md §7: parsing and validation."""
 import math
 import tomllib
 from dataclasses import dataclass, field

@@ -1,7 +1,7 @@
 """Quantities for expected.json, computed from a fixture VTU *as written to disk* (read back with meshio),
 so the numbers belong to exactly the fields in the file (including the rounding of ascii files).
 
-Conventions (DESIGN.md §2, §7): n_Ω outward unit normal of the body, traction σn_Ω.  Contact frame
+Conventions (docs/design.md §2, §7): n_Ω outward unit normal of the body, traction σn_Ω.  Contact frame
 (n, t): with normal = "obstacle" and a plane (point p, unit normal m), n = -m, t = (-n_2, n_1),
 g(x) = m·(x - p); with normal = "body", n = n_Ω of the discrete boundary and g = distance from x to
 the plane along n.  σ_n = n·(σn_Ω), σ_t = t·(σn_Ω), u_n = n·u, u_t = t·u.

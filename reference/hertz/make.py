@@ -154,7 +154,7 @@ def readme(name, c, sol, exp):
     con = exp["boundaries"]["contact"]
     txt = f"""# {name}
 
-Hertz contact (DESIGN.md §9; talk's test): lower half of the disc of radius 1 centred at (0, 1), pressed onto
+Hertz contact (docs/design.md §9; talk's test): lower half of the disc of radius 1 centred at (0, 1), pressed onto
 the rigid plane y = 0 by u = (0, -0.01) on the flat top y = 1. E = 20600, nu = {c['nu']}, plane strain,
 {'Coulomb friction ' + str(fr) if fr else 'frictionless'}. Gamma_C = arc below y = 1/2, contact measured along the
 obstacle normal (`normal = "obstacle"`): u_y >= -y. Rest of the arc traction-free.

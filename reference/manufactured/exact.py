@@ -11,7 +11,7 @@ slips, strictly inside the cone where it sticks except at x1).  Gap g(x) = -c0 +
 (u_n = g, sigma_n < 0) on 0 <= x < x0, inactive (u_n < g, sigma_n = 0) on x0 < x <= 1.
 
 Everything (u, sigma, body force f = -div sigma, boundary data) is built as expression strings in the
-scene-file language of DESIGN.md §7 (max, sin, cos, ^), and evaluated from the same strings in numpy, so
+scene-file language of docs/design.md §7 (max, sin, cos, ^), and evaluated from the same strings in numpy, so
 the scene data and the reference solution cannot disagree.  self_test() checks the derivatives by
 finite differences.  u is C^2 across x = x0 (p is C^2) and C^3 across x = x1, u in H^{3.5-}: enough for
 the optimal rates of P1 and P2; f = -div sigma is continuous.

@@ -316,7 +316,7 @@ def write_readme(doc, outdir):
         "",
         f"{doc['summary']}.",
         "",
-        f"Stress reconstruction of DESIGN.md §5 for the displacement of `{doc['source']['fixture']}` "
+        f"Stress reconstruction of docs/design.md §5 for the displacement of `{doc['source']['fixture']}` "
         f"(copied here: `solution.vtu`, `scene.toml`): sigma_h = argmin over tau in {doc['space']} of "
         f"F(u_h, tau), norm `{doc['norm']}`, w_d = {doc['weights']['w_d']:.10g} "
         f"(length scale {doc['weights']['length_scale']:.10g}), displacement P{doc['displacement_degree']}, "

@@ -294,7 +294,7 @@ class NgsolveReconstruction:
 
     def _neumann_interp(self):
         """Edge DOFs such that the normal trace of each row equals t_i at the nodal points
-        (RT_0: edge mid point, RT_1: end points) -- the nodal convention of DESIGN.md section 4."""
+        (RT_0: edge mid point, RT_1: end points) -- the nodal convention of docs/design.md section 4."""
         P, fes = self.P, self.fes
         xD = np.zeros(fes.ndof)
         bmap = {b.index: b for b in P.scene.boundaries}

@@ -1,5 +1,5 @@
 //! `fosls estimate`: read → mesh and fields → admissibility and terms → report
-//! (DESIGN.md §1, §8). Exit status 0 done, 1 `--fail-above` exceeded or `--strict` check
+//! (docs/design.md §1, §8). Exit status 0 done, 1 `--fail-above` exceeded or `--strict` check
 //! failed, 2 bad input or usage.
 
 use std::io::IsTerminal;
@@ -150,7 +150,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         None => scene.effective_norm(),
         Some(NormArg::Energy) if scene.material.is_incompressible() => {
             return Err(Error::Usage(
-                "--norm energy: ν = 0.5 needs --norm robust or seed (DESIGN.md §3)".into(),
+                "--norm energy: ν = 0.5 needs --norm robust or seed (docs/design.md §3)".into(),
             )
             .into());
         }
@@ -167,7 +167,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         .length_scale
         .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
     // The displacement: the file's, projected onto K_u in the energy norm when it penetrates
-    // or misses the Dirichlet data at the nodes (DESIGN.md §5) unless --displacement file; or
+    // or misses the Dirichlet data at the nodes (docs/design.md §5) unless --displacement file; or
     // rebuilt from the file's nodal stress when the file holds none or it is asked for.
     let file_u: Option<&[[f64; 2]]> = fields.displacement.as_deref();
     let rebuild_reason = match (file_u, args.displacement) {
@@ -275,7 +275,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     let reconstruct_reason = match (&fields.stress, args.stress) {
         (_, Source::Reconstruct) => Some("asked for with --stress reconstruct".to_string()),
         // A conforming but inadmissible stress (tension, traction outside the cone, wrong
-        // traction data) is rebuilt in K_σ under `auto` (DESIGN.md §5).
+        // traction data) is rebuilt in K_σ under `auto` (docs/design.md §5).
         (Stress::Nodal { values, name, .. }, Source::Auto) => {
             let field = StressField::Nodal(values);
             let check = estimate::boundary::boundary(&estimate::boundary::Input {

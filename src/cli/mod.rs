@@ -1,4 +1,4 @@
-//! Command line: arguments, the run of each subcommand, and exit codes (DESIGN.md §8).
+//! Command line: arguments, the run of each subcommand, and exit codes (docs/design.md §8).
 
 mod estimate;
 
@@ -36,7 +36,7 @@ pub enum Command {
         timeout: Option<Duration>,
     },
     /// Evaluate the FOSLS functional of a solution: global estimate, indicators per cell,
-    /// admissibility and the contact zone (DESIGN.md §3–§8).
+    /// admissibility and the contact zone (docs/design.md §3–§8).
     Estimate(EstimateArgs),
     /// Rewrite a VTU file as binary zlib-compressed VTU (appended raw, or inline base64).
     Convert {

@@ -1,5 +1,5 @@
 //! Raviart–Thomas elements RT_0 and RT_1 on the reference triangle, with the contravariant
-//! Piola map to straight and curved (isoparametric P2) cells (DESIGN.md §4: the stress space;
+//! Piola map to straight and curved (isoparametric P2) cells (docs/design.md §4: the stress space;
 //! §5: the contact sign constraint as a bound on single unknowns).
 //!
 //! **Naming.** RT_k is the space RT_k = P_k² + ξ P̃_k (P̃_k: homogeneous polynomials of degree

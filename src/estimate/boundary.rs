@@ -1,4 +1,4 @@
-//! Boundary terms and boundary checks (DESIGN.md §3, §5, §7).
+//! Boundary terms and boundary checks (docs/design.md §3, §5, §7).
 //!
 //! On a contact edge, with n_Ω the outward normal, (n, t) the contact frame, T = σ_h n_Ω:
 //! σ_n = n·T, σ_t = t·T, u_n = n·u_h, u_t = t·u_h, g the gap along n, and
@@ -134,7 +134,7 @@ fn traction(s: [f64; 4], n: [f64; 2]) -> [f64; 2] {
     [s[0] * n[0] + s[1] * n[1], s[2] * n[0] + s[3] * n[1]]
 }
 
-/// Contact quantities at a point (DESIGN.md §2, §7).
+/// Contact quantities at a point (docs/design.md §2, §7).
 #[derive(Clone, Copy, Debug)]
 struct ContactAt {
     sn: f64,

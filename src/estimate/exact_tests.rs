@@ -1,4 +1,4 @@
-//! Exactness (DESIGN.md §9 layer 2): an exact polynomial solution in the discrete spaces gives
+//! Exactness (docs/design.md §9 layer 2): an exact polynomial solution in the discrete spaces gives
 //! F ≈ 0 to round-off, for each preset, and a known perturbation gives the hand-derived F.
 
 use std::path::Path;

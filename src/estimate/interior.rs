@@ -1,4 +1,4 @@
-//! The interior terms of F per cell (DESIGN.md §3), and the energy of the displacement:
+//! The interior terms of F per cell (docs/design.md §3), and the energy of the displacement:
 //!
 //! - constitutive: ∫_T density(ε(u_h) − Aσ_h), the density of the norm preset;
 //! - equilibrium: ½ w_d ∫_T |div σ_h + f|²;

@@ -1,4 +1,4 @@
-//! The FOSLS functional of DESIGN.md §3, its terms per cell, admissibility (§5) and the
+//! The FOSLS functional of docs/design.md §3, its terms per cell, admissibility (§5) and the
 //! contact zone, for a displacement and a stress given on the mesh.
 //!
 //! F(v, τ) = Σ_T [F_const,T + F_div,T] + Σ_{E ⊂ Γ_C} [F_comp,E + F_fric,E]; each boundary
@@ -37,7 +37,7 @@ pub struct Terms {
     pub friction: f64,
 }
 
-/// Size and place of one kind of admissibility violation (DESIGN.md §5).
+/// Size and place of one kind of admissibility violation (docs/design.md §5).
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Violation {
     /// Largest pointwise value (0 when admissible).
@@ -106,7 +106,7 @@ pub struct Contact {
     pub line_state: Vec<Option<ContactState>>,
 }
 
-/// The guaranteed bound of DESIGN.md §6.
+/// The guaranteed bound of docs/design.md §6.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Bound {
     pub guaranteed: bool,
@@ -159,7 +159,7 @@ pub struct Input<'a> {
     pub symmetric_stress: bool,
 }
 
-/// Evaluates F and everything around it (DESIGN.md §3, §5, §6).
+/// Evaluates F and everything around it (docs/design.md §3, §5, §6).
 pub fn run(inp: &Input) -> Estimate {
     let elastic = crate::material::Elastic::new(&inp.scene.material);
     let length_scale = inp
@@ -221,7 +221,7 @@ pub fn run(inp: &Input) -> Estimate {
     }
 }
 
-/// The admissibility checks that fail, as sentences (DESIGN.md §5).
+/// The admissibility checks that fail, as sentences (docs/design.md §5).
 pub fn failed_checks(
     adm: &Admissibility,
     u: &[[f64; 2]],
@@ -259,7 +259,7 @@ pub fn failed_checks(
     out
 }
 
-/// The guaranteed bound of DESIGN.md §6 and the hypotheses that fail for this pair:
+/// The guaranteed bound of docs/design.md §6 and the hypotheses that fail for this pair:
 /// value = ½‖C^{1/2}ε(u_h) − C^{−1/2}σ_h‖² + ⟨u_n − g, σ_n⟩ (the energy-norm constitutive
 /// term plus the complementarity term), an upper bound of ½‖u − u_h‖²_E + ½‖σ − σ_h‖²_A when
 /// every hypothesis holds.
@@ -272,7 +272,7 @@ fn bound(inp: &Input, f: &Terms, energy: f64, adm: &Admissibility) -> Bound {
     let mut failed = Vec::new();
     if frictional {
         failed.push(
-            "Coulomb friction: the bound holds for frictionless contact only (DESIGN.md §6)"
+            "Coulomb friction: the bound holds for frictionless contact only (docs/design.md §6)"
                 .to_string(),
         );
     }

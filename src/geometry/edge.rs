@@ -1,5 +1,5 @@
 //! Edges: the local edges of the reference triangle and the parametrisation of boundary edges
-//! (contact, Dirichlet, Neumann terms of DESIGN.md §3 and §5 are integrals over them).
+//! (contact, Dirichlet, Neumann terms of docs/design.md §3 and §5 are integrals over them).
 //!
 //! An edge with nodes x_j (2 nodes, or 3 with the mid node last, VTK line order) is the curve
 //! x(s) = Σ_j x_j ψ_j(s), s ∈ [0, 1], with the line shape functions ψ_j of

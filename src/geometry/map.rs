@@ -13,7 +13,7 @@
 //!
 //! A 6-node cell whose mid nodes sit at the chord midpoints is the affine 3-node map; on a truly
 //! curved cell J varies with ξ, det J is a quadratic polynomial, and the isoparametric P2 space
-//! reproduces linear functions of x exactly but not quadratic ones. DESIGN.md §4 (the fields),
+//! reproduces linear functions of x exactly but not quadratic ones. docs/design.md §4 (the fields),
 //! §9 layer 1 (element tests).
 
 use super::edge::{EDGE_NODES, LinearEdge, QuadraticEdge};

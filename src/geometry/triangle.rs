@@ -1,4 +1,4 @@
-//! Lagrange shape functions on the reference triangle and the reference edge (DESIGN.md §4:
+//! Lagrange shape functions on the reference triangle and the reference edge (docs/design.md §4:
 //! displacements as P1 or P2 point data).
 //!
 //! Reference triangle T̂ with vertices (0,0), (1,0), (0,1), barycentric coordinates

@@ -1,4 +1,4 @@
-//! Scene file (TOML), DESIGN.md §7: the physics that the VTU file does not hold.
+//! Scene file (TOML), docs/design.md §7: the physics that the VTU file does not hold.
 //!
 //! [`load_scene`] / [`parse_scene`] turn the file into validated plain structs ([`Scene`]).
 //! Every problem is one [`Error::Input`] line `file: key path: problem`, where the key path
@@ -15,25 +15,25 @@
 //!
 //! # Keys
 //!
-//! The keys of DESIGN.md §7, with these decisions where the design is silent:
+//! The keys of docs/design.md §7, with these decisions where the design is silent:
 //!
 //! - `material.model` is optional, default `plane_strain`.
 //! - `[boundaries] tag_array` is optional; a `tag` selector without it reads the cell-data
-//!   array [`DEFAULT_TAG_ARRAY`] (`"boundary_tag"`, the name used in DESIGN.md §7), see
+//!   array [`DEFAULT_TAG_ARRAY`] (`"boundary_tag"`, the name used in docs/design.md §7), see
 //!   [`Scene::tag_array_name`]. Whether that array exists is checked against the mesh later.
 //! - `displacement` (dirichlet) and `traction` (neumann) are required: a boundary that states
 //!   a kind but no data is more likely a mistake than a default.
-//! - `normal` (contact) is optional, default `body` (DESIGN.md §2); `friction` default 0.
+//! - `normal` (contact) is optional, default `body` (docs/design.md §2); `friction` default 0.
 //! - Two boundaries with the same `tag` are an error (an edge would get two conditions);
 //!   overlapping `where` selectors can only be detected on the mesh.
 //! - ν = 0.5 forces the `robust` norm by default, and an explicit `energy` is refused
-//!   (DESIGN.md §3, §7), in plane stress too: there λ* = Eν/(1 − ν²) stays finite (see
+//!   (docs/design.md §3, §7), in plane stress too: there λ* = Eν/(1 − ν²) stays finite (see
 //!   [`Material::lambda`]) and the energy norm would be defined, but one rule for ν = 0.5 keeps
 //!   reports comparable across models and matches the reference harness.
 //! - Numbers that must be finite (E, ν, friction, plane data, constant boundary data, ℓ) refuse
 //!   TOML's `nan` and `inf`.
 //! - Stress layouts are any comma-separated list of distinct components (see
-//!   [`StressLayout`]), which includes the four layouts of DESIGN.md §4.
+//!   [`StressLayout`]), which includes the four layouts of docs/design.md §4.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -142,7 +142,7 @@ pub enum Gap {
     Expr(Expr),
 }
 
-/// The direction n in which u_n and g are measured (DESIGN.md §2, §7).
+/// The direction n in which u_n and g are measured (docs/design.md §2, §7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ContactNormal {
     /// n = n_Ω, the outward normal of the body (the default).
@@ -160,7 +160,7 @@ pub struct Estimate {
     pub length_scale: Option<f64>,
 }
 
-/// Norm/weight preset of the functional (DESIGN.md §3).
+/// Norm/weight preset of the functional (docs/design.md §3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Norm {
@@ -411,7 +411,7 @@ impl Component {
 ///
 /// Parsed from a comma-separated list, case-insensitive, spaces ignored, of distinct
 /// components among xx, yy, zz, xy, yx, xz, zx, yz, zy, which must include xx, yy and xy or
-/// yx. The layouts of DESIGN.md §4 are [`StressLayout::for_component_count`] of 3, 4, 6, 9.
+/// yx. The layouts of docs/design.md §4 are [`StressLayout::for_component_count`] of 3, 4, 6, 9.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct StressLayout {
     components: Vec<Component>,
@@ -456,7 +456,7 @@ impl StressLayout {
         Ok(layout)
     }
 
-    /// The usual layout for a component count (DESIGN.md §4): 3 = xx,yy,xy;
+    /// The usual layout for a component count (docs/design.md §4): 3 = xx,yy,xy;
     /// 4 = xx,yy,zz,xy; 6 = xx,yy,zz,xy,yz,xz (VTK symmetric order); 9 = row-major
     /// xx,xy,xz,yx,yy,yz,zx,zy,zz. `None` for other counts.
     pub fn for_component_count(n: usize) -> Option<StressLayout> {
@@ -1187,7 +1187,7 @@ impl Reader<'_> {
 mod tests {
     use super::*;
 
-    /// The scene of DESIGN.md §7, verbatim.
+    /// The scene of docs/design.md §7, verbatim.
     const EXAMPLE: &str = r#"
 [material]
 youngs_modulus = 20600.0
@@ -1276,7 +1276,7 @@ poisson_ratio = 0.3
     }
 
     #[test]
-    #[allow(clippy::approx_constant)] // 0.318 is the value written in DESIGN.md §7
+    #[allow(clippy::approx_constant)] // 0.318 is the value written in docs/design.md §7
     fn design_example_parses_to_the_expected_values() {
         let scene = parse(EXAMPLE).unwrap();
         let expected = Scene {
@@ -1483,7 +1483,7 @@ gap = "x^2/2"
         assert_eq!(seed.effective_norm(), Norm::Seed);
         let robust = scene_with("[estimate]\nnorm = \"robust\"\n");
         assert_eq!(robust.effective_norm(), Norm::Robust);
-        // ν = 0.5 forces robust in plane stress too (DESIGN.md §3, §7).
+        // ν = 0.5 forces robust in plane stress too (docs/design.md §3, §7).
         let stress = format!("{incompressible}model = \"plane_stress\"\n");
         assert_eq!(parse(&stress).unwrap().effective_norm(), Norm::Robust);
         let explicit = format!("{stress}[estimate]\nnorm = \"energy\"\n");

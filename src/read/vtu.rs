@@ -1,6 +1,6 @@
 //! VTU (VTK XML UnstructuredGrid) reader.
 //!
-//! Reads every layout VTK, meshio and NGSolve write (DESIGN.md §9): DataArray formats `ascii`,
+//! Reads every layout VTK, meshio and NGSolve write (docs/design.md §9): DataArray formats `ascii`,
 //! `binary` (inline base64) and `appended` (raw or base64), UInt32/UInt64 headers, both byte
 //! orders, zlib/LZ4/LZMA compression, any numeric type, and several `<Piece>` elements, which
 //! are merged. The result is the file as written ([`VtuFile`]); turning it into a mesh is

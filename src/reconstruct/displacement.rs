@@ -1,4 +1,4 @@
-//! Projection of an inadmissible displacement onto K_u (DESIGN.md §5):
+//! Projection of an inadmissible displacement onto K_u (docs/design.md §5):
 //!
 //! ```text
 //! ũ_h = argmin { ½ a(v − u_h, v − u_h) : v ∈ P_k(T_h)², v = u_D at the Dirichlet nodes,
@@ -479,7 +479,7 @@ pub struct Reconstruction {
 /// Cap on the rounds of the remedy in [`reconstruct`].
 pub const MAX_FRICTION_ITERATIONS: usize = 50;
 
-/// Reconstructs the displacement from a stress (DESIGN.md §5):
+/// Reconstructs the displacement from a stress (docs/design.md §5):
 ///
 /// ```text
 /// u_h = argmin { F(v, σ_h) : v ∈ P_k(T_h)², v = u_D at the Dirichlet nodes,
@@ -510,7 +510,7 @@ pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
                 .into(),
         );
     }
-    // 2B(x, y) = a x:y + b tr x tr y (DESIGN.md §3).
+    // 2B(x, y) = a x:y + b tr x tr y (docs/design.md §3).
     let (a, b) = match inp.norm {
         Norm::Energy => (2.0 * el.mu, el.lambda),
         Norm::Robust => (2.0 * el.mu, 0.0),
@@ -803,7 +803,7 @@ fn contact_load(
                     continue;
                 }
                 // The friction term ⟨𝔉|σ_n|, |v_t|⟩ + ⟨σ_t, v_t⟩ exists for 𝔉 > 0 only
-                // (DESIGN.md §3); without friction σ_t = 0 is a constraint on σ, not a load.
+                // (docs/design.md §3); without friction σ_t = 0 is a constraint on σ, not a load.
                 let st = if spec.friction > 0.0 { st } else { 0.0 };
                 for d in 0..2 {
                     f[2 * p + d] -= wl * phi[k] * (sn * n[d] + st * tt[d]);

@@ -1,4 +1,4 @@
-//! Reconstruction of missing, non-conforming or inadmissible fields (DESIGN.md §5).
+//! Reconstruction of missing, non-conforming or inadmissible fields (docs/design.md §5).
 //!
 //! Stress: σ_h = argmin over τ ∈ RT_k(T_h)² ∩ K_σ of F(u_h, τ), a convex quadratic program
 //! with bound constraints on the normal traces at the contact points ([`solve`]).

@@ -1,4 +1,4 @@
-//! The bound-constrained quadratic program of the reconstruction (DESIGN.md §5):
+//! The bound-constrained quadratic program of the reconstruction (docs/design.md §5):
 //!
 //! ```text
 //! minimise ½ xᵀ K x − bᵀ x   subject to  x_i ≤ 0 for i ∈ C,

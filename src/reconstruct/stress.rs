@@ -1,4 +1,4 @@
-//! Global stress reconstruction (DESIGN.md §5):
+//! Global stress reconstruction (docs/design.md §5):
 //!
 //! ```text
 //! σ_h = argmin { F(u_h, τ) : τ ∈ RT_k(T_h)² ∩ K_σ },

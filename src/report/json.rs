@@ -1,4 +1,4 @@
-//! The JSON printer (`--json FILE`): the minimum contract of DESIGN.md §8, key for key, plus
+//! The JSON printer (`--json FILE`): the minimum contract of docs/design.md §8, key for key, plus
 //! the extra keys it welcomes.
 //!
 //! ```text
@@ -141,7 +141,7 @@ pub struct Contact {
     pub intervals: Vec<Interval>,
 }
 
-/// The bound of DESIGN.md §6.
+/// The bound of docs/design.md §6.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Bound {
     pub guaranteed: bool,

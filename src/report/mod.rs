@@ -1,4 +1,4 @@
-//! The printers of an [`Estimate`] (DESIGN.md §8): terminal text ([`text`]), JSON ([`json`])
+//! The printers of an [`Estimate`] (docs/design.md §8): terminal text ([`text`]), JSON ([`json`])
 //! and the output VTU ([`vtu`]), plus Dörfler bulk marking for adaptivity ([`mark`]).
 //!
 //! As in ripgrep, every output format is a separate printer of the same inputs: the estimate,
@@ -30,7 +30,7 @@ use crate::estimate::Estimate;
 /// How many cells the reports rank.
 pub const WORST: usize = 10;
 
-/// Names of the four terms of F, in the order of DESIGN.md §3.
+/// Names of the four terms of F, in the order of docs/design.md §3.
 pub const TERMS: [&str; 4] = ["constitutive", "equilibrium", "complementarity", "friction"];
 
 /// Where a field came from and why.
@@ -90,7 +90,7 @@ pub struct Run {
     pub stages: Vec<Stage>,
     pub boundaries: Vec<BoundaryInfo>,
     pub marked: Option<Marking>,
-    /// ‖ũ_h − u_h‖_E when the file's displacement was projected onto K_u (DESIGN.md §5).
+    /// ‖ũ_h − u_h‖_E when the file's displacement was projected onto K_u (docs/design.md §5).
     pub projection_distance: Option<f64>,
 }
 

@@ -1,4 +1,4 @@
-//! The terminal printer: the summary of DESIGN.md §8, in sections.
+//! The terminal printer: the summary of docs/design.md §8, in sections.
 //!
 //! 1. Inputs: files, where each field came from (file or reconstructed, and why), the
 //!    boundaries, notes.

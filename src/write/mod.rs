@@ -1,7 +1,7 @@
 //! VTU writer: binary, zlib-compressed, appended raw or inline base64, UInt64 headers.
 //!
 //! Files are written atomically: to a temporary name in the target folder, then renamed, so a
-//! failure never leaves a partial file and a reader never sees one (DESIGN.md §8).
+//! failure never leaves a partial file and a reader never sees one (docs/design.md §8).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
