@@ -4,13 +4,14 @@
 //! The modules follow the data flow:
 //! read (VTU, scene) → mesh and fields → topology → elements and quadrature → … → report.
 
+pub mod audit;
 pub mod element;
 pub mod error;
 pub mod estimate;
 pub mod expr;
+pub mod field;
 pub mod geometry;
 pub mod inspect;
-pub mod field;
 pub mod limits;
 pub mod material;
 pub mod mesh;

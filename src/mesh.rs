@@ -103,7 +103,11 @@ impl Mesh {
         let p0 = self.points[v[0] as usize];
         let mut a = 0.0;
         for k in 1..v.len() - 1 {
-            a += double_area(p0, self.points[v[k] as usize], self.points[v[k + 1] as usize]);
+            a += double_area(
+                p0,
+                self.points[v[k] as usize],
+                self.points[v[k + 1] as usize],
+            );
         }
         a
     }
@@ -114,7 +118,10 @@ impl Mesh {
         for f in &self.family {
             seen[f.index()] = true;
         }
-        Family::ALL.into_iter().filter(|f| seen[f.index()]).collect()
+        Family::ALL
+            .into_iter()
+            .filter(|f| seen[f.index()])
+            .collect()
     }
 
     /// Whether any cell is a quadrilateral.
@@ -278,7 +285,9 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
         let t = file.types[c];
         let is_lagrange = matches!(
             t,
-            cell_type::LAGRANGE_CURVE | cell_type::LAGRANGE_TRIANGLE | cell_type::LAGRANGE_QUADRILATERAL
+            cell_type::LAGRANGE_CURVE
+                | cell_type::LAGRANGE_TRIANGLE
+                | cell_type::LAGRANGE_QUADRILATERAL
         );
         let order = if is_lagrange {
             let from_count = cell_type::lagrange_order(t, n.len()).ok_or_else(|| {
@@ -456,7 +465,8 @@ fn check_geometry(
         .collect();
     let degenerate: Vec<usize> = (0..n)
         .filter(|&t| {
-            !(areas[t].abs() > tolerance::DEGENERATE_AREA_RELATIVE * scales[t].powi(2))
+            let a = areas[t].abs();
+            a.is_nan() || a <= tolerance::DEGENERATE_AREA_RELATIVE * scales[t].powi(2)
         })
         .map(|t| mesh.file_cell[t] as usize)
         .collect();
@@ -505,7 +515,11 @@ fn check_geometry(
             format!(
                 "{} with a non-positive Jacobian (a mid-edge node too far off the chord, or a \
                  non-convex quadrilateral): cells {} ({} in all)",
-                if mesh.has_quads() { "cells" } else { "curved triangles" },
+                if mesh.has_quads() {
+                    "cells"
+                } else {
+                    "curved triangles"
+                },
                 list_indices(&inverted),
                 inverted.len()
             ),
@@ -544,7 +558,11 @@ fn check_geometry(
 
 /// "triangles" on triangle meshes, "cells" otherwise (messages).
 fn noun(mesh: &Mesh) -> &'static str {
-    if mesh.has_quads() { "cells" } else { "triangles" }
+    if mesh.has_quads() {
+        "cells"
+    } else {
+        "triangles"
+    }
 }
 
 /// det J > 0 at every node of the reference cell and at the points of a degree-4 rule.

@@ -248,10 +248,7 @@ fn select_stress(data: &Dataset, scene: &Scene, notes: &mut Vec<String>) -> Resu
         arrays.iter().position(|a| a.name == name)
     };
     let (array, kind) = if let Some(name) = &scene.fields.stress {
-        match (
-            find(&data.point_data, name),
-            find(&data.cell_data, name),
-        ) {
+        match (find(&data.point_data, name), find(&data.cell_data, name)) {
             (Some(p), c) => {
                 if c.is_some() {
                     notes.push(format!(

@@ -127,14 +127,19 @@ pub fn from_loops(
 pub fn build(data: &Dataset) -> Result<Topology> {
     let err = |problem: String| Error::input(&data.path, "Cells", problem);
     let mesh: &Mesh = &data.mesh;
-    let noun = if mesh.has_quads() { "cells" } else { "triangles" };
+    let noun = if mesh.has_quads() {
+        "cells"
+    } else {
+        "triangles"
+    };
     let (topo, [non_manifold, non_conforming, mut folded]) = from_loops(
         mesh.len(),
         |t, k| mesh.cells[t][k],
         |t| mesh.family[t].vertices(),
         |t, k| mesh.edge(t, k)[2],
     );
-    let file = |v: &[usize]| -> Vec<usize> { v.iter().map(|&t| mesh.file_cell[t] as usize).collect() };
+    let file =
+        |v: &[usize]| -> Vec<usize> { v.iter().map(|&t| mesh.file_cell[t] as usize).collect() };
     let (non_manifold, non_conforming) = (file(&non_manifold), file(&non_conforming));
     folded = file(&folded);
     let Topology {

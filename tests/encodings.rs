@@ -45,11 +45,7 @@ fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
 /// nodes (numbering-independent, so merged exploded meshes compare with conforming ones).
 fn compare(name: &str, got: &Dataset, want: &Dataset, tol: &dyn Fn(&str) -> f64) {
     assert_eq!(got.mesh.degree, want.mesh.degree, "{name}");
-    assert_eq!(
-        got.mesh.cells.len(),
-        want.mesh.cells.len(),
-        "{name}"
-    );
+    assert_eq!(got.mesh.cells.len(), want.mesh.cells.len(), "{name}");
     let gather = |d: &Dataset, f: &dyn Fn(usize) -> Vec<f64>| -> Vec<f64> {
         (0..d.mesh.cells.len())
             .flat_map(|t| {

@@ -95,7 +95,10 @@ fn reconstruction_reproduces_a_stress_in_the_space_on_quads() {
     // Every exact stress is of degree ≤ 1 in x (RT_1 contains it on the straight or P2
     // sub-triangles, docs/design.md §5.4); the file's displacement is exact.
     for case in EXACT {
-        let r = estimate(&fixture(case), &["--stress", "reconstruct", "--degree", "1"]);
+        let r = estimate(
+            &fixture(case),
+            &["--stress", "reconstruct", "--degree", "1"],
+        );
         let rel = r.functional.total / r.energy;
         assert!(rel.abs() < 1e-16, "{case}: F/energy = {rel:e}");
     }
@@ -197,7 +200,11 @@ fn curvedness_survives_twelve_digit_ascii_coordinates() {
     // The binary Hertz P2 file and the same mesh with coordinates rounded to 12 significant
     // digits (what an ASCII writer with %.12g stores) must agree on the curved cells.
     use fosls::read::vtu::read_vtu;
-    for case in ["hertz_skfem_p2", "quad_hertz_skfem_q2", "quad_hertz_skfem_s2"] {
+    for case in [
+        "hertz_skfem_p2",
+        "quad_hertz_skfem_q2",
+        "quad_hertz_skfem_s2",
+    ] {
         let file = read_vtu(&fixture(case)).unwrap();
         let mut rounded = file.clone();
         for p in &mut rounded.points {
@@ -235,9 +242,17 @@ fn mfem_high_order_lagrange_output_matches_the_same_solution_as_vtk_22() {
         "file",
     ];
     let m = estimate(&file, &args);
-    let s = estimate(&fixture("hertz_skfem_p2"), &["--stress", "file", "--displacement", "file"]);
+    let s = estimate(
+        &fixture("hertz_skfem_p2"),
+        &["--stress", "file", "--displacement", "file"],
+    );
     let rel = (m.functional.total - s.functional.total).abs() / s.functional.total;
-    assert!(rel < 1e-6, "F {} against {}", m.functional.total, s.functional.total);
+    assert!(
+        rel < 1e-6,
+        "F {} against {}",
+        m.functional.total,
+        s.functional.total
+    );
     // In default mode (the file's stress is inadmissible: rebuilt), the contact force is the
     // solver's reaction.
     let p = expected("mfem_hertz_p2_highorder")["hertz"]["P_solver"]

@@ -23,11 +23,11 @@ use super::{Admissibility, Contact, ContactInterval, ContactState, Violation};
 use crate::expr::Expr;
 use crate::field::{RtStress, StressField};
 use crate::geometry::{Family, MAX_NODES, facet_point};
-use crate::tolerance::{EDGE_DEGREE, EDGE_SAMPLES, GAP_RELATIVE, STATE_RELATIVE};
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition};
 use crate::quadrature::line_rule_cached;
 use crate::read::scene::{BoundaryKind, Contact as ContactSpec, Scene};
+use crate::tolerance::{EDGE_DEGREE, EDGE_SAMPLES, GAP_RELATIVE, STATE_RELATIVE};
 
 /// What the boundary pass needs.
 pub struct Input<'a> {
@@ -112,8 +112,8 @@ impl<'a> EdgeFields<'a> {
             Some(rt) => sigma = rt.at_parent(self.mesh, self.cell, fp.xi).0,
             None => {
                 for k in 0..n {
-                    for m in 0..4 {
-                        sigma[m] += self.s[k][m] * fp.phi[k];
+                    for (m, v) in sigma.iter_mut().enumerate() {
+                        *v += self.s[k][m] * fp.phi[k];
                     }
                 }
             }
@@ -207,7 +207,10 @@ fn zeros(h: impl Fn(f64) -> f64, quadratic: bool) -> Vec<f64> {
             .map(|i| h(i as f64 / EDGE_SAMPLES as f64))
             .collect();
         for i in 0..EDGE_SAMPLES {
-            let (mut lo, mut hi) = (i as f64 / EDGE_SAMPLES as f64, (i + 1) as f64 / EDGE_SAMPLES as f64);
+            let (mut lo, mut hi) = (
+                i as f64 / EDGE_SAMPLES as f64,
+                (i + 1) as f64 / EDGE_SAMPLES as f64,
+            );
             let (vl, vh) = (v[i], v[i + 1]);
             if !(vl.is_finite() && vh.is_finite()) {
                 continue;

@@ -61,22 +61,19 @@ pub fn interior(inp: &Input) -> Interior {
     let per_cell: Vec<[f64; 3]> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(1024)
-        .map_init(
-            || Vec::<(Family, Shape, CellValues)>::new(),
-            |cache, t| {
-                let (f, sh) = (mesh.family[t], mesh.shape[t]);
-                let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
-                    Some(i) => i,
-                    None => {
-                        let tb = interior_table(f, sh, rt, constant_f);
-                        cache.push((f, sh, CellValues::new(tb)));
-                        cache.len() - 1
-                    }
-                };
-                let cv = &mut cache[i].2;
-                cell(inp, t, cv, constant_f, f_const)
-            },
-        )
+        .map_init(Vec::<(Family, Shape, CellValues)>::new, |cache, t| {
+            let (f, sh) = (mesh.family[t], mesh.shape[t]);
+            let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
+                Some(i) => i,
+                None => {
+                    let tb = interior_table(f, sh, rt, constant_f);
+                    cache.push((f, sh, CellValues::new(tb)));
+                    cache.len() - 1
+                }
+            };
+            let cv = &mut cache[i].2;
+            cell(inp, t, cv, constant_f, f_const)
+        })
         .collect();
     Interior {
         constitutive: per_cell.iter().map(|c| c[0]).collect(),

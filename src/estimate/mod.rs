@@ -137,7 +137,6 @@ pub struct Estimate {
 pub mod boundary;
 pub mod interior;
 
-
 use crate::mesh::Mesh;
 use crate::problem::BoundaryEdge;
 use crate::read::scene::Scene;

@@ -141,7 +141,11 @@ impl Family {
     #[inline]
     pub const fn edge_nodes(self, k: usize) -> [usize; 3] {
         let nv = self.vertices();
-        let mid = if self.degree() == 2 { nv + k } else { usize::MAX };
+        let mid = if self.degree() == 2 {
+            nv + k
+        } else {
+            usize::MAX
+        };
         [k, (k + 1) % nv, mid]
     }
 

@@ -37,7 +37,11 @@ pub const NODES: [[f64; 2]; 9] = [
 #[inline]
 fn quadratics(t: f64) -> ([f64; 3], [f64; 3]) {
     (
-        [(1.0 - t) * (1.0 - 2.0 * t), t * (2.0 * t - 1.0), 4.0 * t * (1.0 - t)],
+        [
+            (1.0 - t) * (1.0 - 2.0 * t),
+            t * (2.0 * t - 1.0),
+            4.0 * t * (1.0 - t),
+        ],
         [4.0 * t - 3.0, 4.0 * t - 1.0, 4.0 - 8.0 * t],
     )
 }
@@ -121,7 +125,9 @@ pub fn s2(xi: [f64; 2]) -> ([f64; 8], [[f64; 2]; 8]) {
 mod tests {
     use super::*;
 
-    fn check_family<const N: usize>(f: fn([f64; 2]) -> ([f64; N], [[f64; 2]; N])) {
+    type Shapes<const N: usize> = fn([f64; 2]) -> ([f64; N], [[f64; 2]; N]);
+
+    fn check_family<const N: usize>(f: Shapes<N>) {
         // Nodality: φ_i(x_j) = δ_ij.
         for (j, &p) in NODES.iter().take(N).enumerate() {
             let (v, _) = f(p);
@@ -173,7 +179,10 @@ mod tests {
         let p = [0.37, 0.81];
         let (v, _) = s2(p);
         let interp = |h: &dyn Fn([f64; 2]) -> f64| {
-            v.iter().enumerate().map(|(i, vi)| vi * h(NODES[i])).sum::<f64>()
+            v.iter()
+                .enumerate()
+                .map(|(i, vi)| vi * h(NODES[i]))
+                .sum::<f64>()
         };
         assert!((interp(&f) - f(p)).abs() < 1e-14);
         assert!((interp(&g) - g(p)).abs() > 1e-3);

@@ -12,12 +12,15 @@
 //!   J(ξ_q) and the physical gradients ∇φ_i = J^{−T} ∇̂φ_i.
 //! - [`facet_point`]: on local edge k at s: x, the outward unit normal, |dx/ds|, ξ, J, φ, ∇φ.
 
+// The kernels index nodal arrays, shape tables and outputs in lockstep by node.
+#![allow(clippy::needless_range_loop)]
+
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
 
 use super::{Family, Jacobian, MAX_NODES, Shape};
-use crate::tolerance;
 use crate::quadrature::{line_rule, triangle_rule_cached};
+use crate::tolerance;
 
 /// A rule on a family's reference cell with the shape functions tabulated at its points.
 #[derive(Debug)]
@@ -87,8 +90,8 @@ impl Table {
 /// The cached table of `family` exact to `degree`; `split` asks for the rule on the
 /// sub-triangles (the same as the plain rule on triangles).
 pub fn table(family: Family, degree: usize, split: bool) -> &'static Table {
-    static CACHE: OnceLock<Mutex<HashMap<(Family, usize, bool), &'static Table>>> =
-        OnceLock::new();
+    type Cache = Mutex<HashMap<(Family, usize, bool), &'static Table>>;
+    static CACHE: OnceLock<Cache> = OnceLock::new();
     let split = split && family.is_quad();
     let mut map = CACHE
         .get_or_init(Default::default)
@@ -482,7 +485,9 @@ pub fn invert(family: Family, x: &[[f64; 2]], target: [f64; 2], guess: [f64; 2])
             m[1][0] * r[0] + m[1][1] * r[1],
         ];
         xi = [xi[0] - d[0], xi[1] - d[1]];
-        if !(d[0].abs().max(d[1].abs()) > tolerance::INVERSE_MAP_STEP) {
+        // A NaN step (a degenerate map) stops too.
+        let step = d[0].abs().max(d[1].abs());
+        if step <= tolerance::INVERSE_MAP_STEP || step.is_nan() {
             break;
         }
     }
@@ -579,7 +584,11 @@ pub fn locate_sub(
     let p = position(x, family.nodes(), &phi);
     let d = [x[2][0] - x[0][0], x[2][1] - x[0][1]];
     let r = [p[0] - x[0][0], p[1] - x[0][1]];
-    let k = if d[0] * r[1] - d[1] * r[0] <= 0.0 { 0 } else { 1 };
+    let k = if d[0] * r[1] - d[1] * r[0] <= 0.0 {
+        0
+    } else {
+        1
+    };
     let (sf, y) = sub_nodes(family, x, shape == Shape::Curved, k);
     // ξ_sub from the straight triangle of the half's vertices, refined on a curved half.
     let (a0, a1, a2) = (y[0], y[1], y[2]);
@@ -647,9 +656,17 @@ mod tests {
             let x: Vec<[f64; 2]> = f
                 .reference_nodes()
                 .iter()
-                .map(|p| [1.0 + 2.0 * p[0] + 0.3 * p[1], -1.0 + 0.2 * p[0] + 1.5 * p[1] + 0.1 * p[0] * p[1]])
+                .map(|p| {
+                    [
+                        1.0 + 2.0 * p[0] + 0.3 * p[1],
+                        -1.0 + 0.2 * p[0] + 1.5 * p[1] + 0.1 * p[0] * p[1],
+                    ]
+                })
                 .collect();
-            let u: Vec<[f64; 2]> = x.iter().map(|p| [3.0 * p[0] - p[1], 0.5 * p[1] + 2.0]).collect();
+            let u: Vec<[f64; 2]> = x
+                .iter()
+                .map(|p| [3.0 * p[0] - p[1], 0.5 * p[1] + 2.0])
+                .collect();
             let mut cv = CellValues::new(table(f, 4, false));
             cv.reinit(&x, Shape::Curved);
             for q in 0..cv.len() {

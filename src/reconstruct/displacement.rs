@@ -711,7 +711,8 @@ impl<F: Fn(Family, Shape) -> &'static Table> CellTables<F> {
         let i = match self.values.iter().position(|c| c.0 == f && c.1 == sh) {
             Some(i) => i,
             None => {
-                self.values.push((f, sh, CellValues::new((self.make)(f, sh))));
+                self.values
+                    .push((f, sh, CellValues::new((self.make)(f, sh))));
                 self.values.len() - 1
             }
         };

@@ -131,7 +131,8 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
         for slot in 0..order.edge_dofs() {
             let s_global = order.edge_points()[slot];
             let s = if forward { s_global } else { 1.0 - s_global };
-            let (sp, normal, len, _) = sub_edge_point(fam, &x[..fam.nodes()], mesh.shape[t], k, l, s);
+            let (sp, normal, len, _) =
+                sub_edge_point(fam, &x[..fam.nodes()], mesh.shape[t], k, l, s);
             let p = sp.x;
             // Global DOF = sgn × (outward flux density of the owner).
             let sgn = if forward { 1.0 } else { -1.0 };
@@ -268,7 +269,10 @@ pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
             let eps = [gu[0][0], sym, sym, gu[1][1]];
             let f = match f_expr {
                 None => [0.0; 2],
-                Some(fe) => [fe[0].eval(sp.x[0], sp.x[1], 0.0), fe[1].eval(sp.x[0], sp.x[1], 0.0)],
+                Some(fe) => [
+                    fe[0].eval(sp.x[0], sp.x[1], 0.0),
+                    fe[1].eval(sp.x[0], sp.x[1], 0.0),
+                ],
             };
             let (v, d) = rt::piola(order, &jac, xi);
             // A τ and div τ of each local function (row r = φ_i, the other row 0).

@@ -42,12 +42,8 @@ impl SubMesh {
         first.push(parent.len() as u32);
         // The mesh topology has already refused non-manifold and folded meshes; the diagonals
         // add neither.
-        let (topo, _) = topology::from_loops(
-            vertices.len(),
-            |r, k| vertices[r][k],
-            |_| 3,
-            |_, _| NONE,
-        );
+        let (topo, _) =
+            topology::from_loops(vertices.len(), |r, k| vertices[r][k], |_| 3, |_, _| NONE);
         SubMesh {
             parent,
             index,
@@ -72,7 +68,9 @@ impl SubMesh {
     pub fn locate_edge(&self, a: u32, b: u32) -> Option<(usize, usize, usize)> {
         let e = self.topo.find_edge(a, b)?;
         let r = self.topo.edge_cells[e][0] as usize;
-        let l = self.topo.cell_edges[r].iter().position(|&x| x == e as u32)?;
+        let l = self.topo.cell_edges[r]
+            .iter()
+            .position(|&x| x == e as u32)?;
         Some((e, r, l))
     }
 }

@@ -201,16 +201,17 @@ pub fn discontinuous_file(
         let nn = fam.nodes();
         let x = mesh.coords(t);
         let base = points.len() as u32;
-        cells.push((cell_type::of_family(fam), (base..base + nn as u32).collect()));
+        cells.push((
+            cell_type::of_family(fam),
+            (base..base + nn as u32).collect(),
+        ));
         for (k, &xi) in fam.reference_nodes().iter().enumerate() {
             let p = nodes[k] as usize;
             points.push([x[k][0], x[k][1], 0.0]);
             displacement.extend_from_slice(&u[p]);
             let s = match sigma {
                 crate::field::StressField::Nodal(v) => v[p],
-                crate::field::StressField::Rt(rt) => {
-                    rt.at_parent(mesh, t, xi).0
-                }
+                crate::field::StressField::Rt(rt) => rt.at_parent(mesh, t, xi).0,
             };
             stress.extend_from_slice(&tensor9(s));
         }

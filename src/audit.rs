@@ -1,0 +1,712 @@
+//! The audit pipeline of `fosls estimate` (docs/design.md §10), as the algorithm reads:
+//!
+//! 1. load: the solution (mesh and fields) and the scene, every option validated first;
+//! 2. choose the sources: the file's displacement, its projection onto K_u or a rebuilt one;
+//!    the file's stress or a reconstruction ([`DisplacementReason`], [`StressReason`]);
+//! 3. reconstruct what was chosen (docs/design.md §5);
+//! 4. estimate: the functional, admissibility, the contact zone (§3, §5);
+//! 5. report data: notes, stages, boundaries, marking ([`crate::report::Run`]).
+//!
+//! [`run`] returns an [`Audit`]; [`write_outputs`] writes the `--output` files. `main` only
+//! parses the command line, calls these, prints and maps exit codes.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::element::rt::RtOrder;
+use crate::estimate::{self, Estimate, StressField};
+use crate::problem::{self, Stress};
+use crate::read::scene::{self, Norm, Scene};
+use crate::{Error, mesh, read, reconstruct, report, topology};
+
+/// Where a field comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// The file's field when it is conforming and admissible, a reconstruction otherwise.
+    Auto,
+    /// The file's field as it is.
+    File,
+    /// Rebuild the field from the other one.
+    Reconstruct,
+}
+
+/// Why the displacement was rebuilt from the stress.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DisplacementReason {
+    /// The file holds none (a pure stress method).
+    Absent,
+    /// `--displacement reconstruct`.
+    Asked,
+}
+
+impl std::fmt::Display for DisplacementReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DisplacementReason::Absent => "the file holds no displacement",
+            DisplacementReason::Asked => "asked for with --displacement reconstruct",
+        })
+    }
+}
+
+/// Why the stress was reconstructed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StressReason {
+    /// `--stress reconstruct`.
+    Asked,
+    /// The file's nodal stress is not in K_σ (the failed checks).
+    Inadmissible { name: String, failures: Vec<String> },
+    /// A cell-data stress: piecewise constant, not H(div)-conforming.
+    CellData { name: String },
+    /// The file holds none.
+    Absent,
+}
+
+impl std::fmt::Display for StressReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StressReason::Asked => f.write_str("asked for with --stress reconstruct"),
+            StressReason::Inadmissible { name, failures } => write!(
+                f,
+                "the file's stress \"{name}\" is not in K_σ: {}",
+                failures.join("; ")
+            ),
+            StressReason::CellData { name } => write!(
+                f,
+                "\"{name}\" is cell data (piecewise constant), not H(div)-conforming"
+            ),
+            StressReason::Absent => f.write_str("the file holds no stress"),
+        }
+    }
+}
+
+/// The validated options of one audit.
+#[derive(Clone, Debug)]
+pub struct Options {
+    pub file: PathBuf,
+    pub scene: Option<PathBuf>,
+    pub norm: Option<Norm>,
+    pub stress: Source,
+    pub displacement: Source,
+    /// RT degree k of the reconstruction (0 or 1); default: displacement degree − 1.
+    pub degree: Option<usize>,
+    /// Dörfler parameter θ.
+    pub mark: Option<f64>,
+}
+
+impl Options {
+    /// Checks every option before any work.
+    pub fn validate(&self) -> Result<(), Error> {
+        if let Some(k) = self.degree
+            && k > 1
+        {
+            return Err(Error::Usage(format!(
+                "--degree {k}: RT_0 and RT_1 are available"
+            )));
+        }
+        if let Some(theta) = self.mark {
+            report::mark::check_theta(theta)?;
+        }
+        if self.displacement == Source::Reconstruct && self.stress == Source::Reconstruct {
+            return Err(Error::Usage(
+                "--stress reconstruct: the displacement is reconstructed from the file's \
+                 stress, so the stress cannot be reconstructed too"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Progress of the stages (a spinner in the command line, nothing in tests and benches).
+pub trait Progress {
+    fn stage(&self, what: &str);
+    fn done(&self);
+}
+
+/// No progress display.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn stage(&self, what: &str) {
+        crate::limits::set_stage(what);
+    }
+    fn done(&self) {}
+}
+
+/// Everything one audit produced.
+pub struct Audit {
+    pub data: mesh::Dataset,
+    pub estimate: Estimate,
+    pub run: report::Run,
+    /// Checks that failed on the fields used (`--strict`).
+    pub failed: Vec<String>,
+    pub stress_reconstruction: Option<reconstruct::stress::Reconstruction>,
+    pub displacement_reconstruction: Option<reconstruct::displacement::Reconstruction>,
+    pub projection: Option<reconstruct::displacement::Projection>,
+    /// The displacement the estimate used.
+    pub u: Vec<[f64; 2]>,
+    /// The file's nodal stress, when it was used.
+    nodal_stress: Option<Vec<[f64; 4]>>,
+}
+
+impl Audit {
+    /// The stress the estimate used.
+    pub fn sigma(&self) -> StressField<'_> {
+        match (&self.stress_reconstruction, &self.nodal_stress) {
+            (Some(r), _) => StressField::Rt(&r.stress),
+            (None, Some(v)) => StressField::Nodal(v),
+            (None, None) => unreachable!("a stress that is not nodal is reconstructed"),
+        }
+    }
+}
+
+/// The scene for `file`: `--scene`, else `<stem>.toml` beside it, else `scene.toml` there.
+pub fn find_scene(file: &Path, given: Option<&Path>) -> Result<PathBuf, Error> {
+    if let Some(s) = given {
+        return Ok(s.to_path_buf());
+    }
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let stem = file.with_extension("toml");
+    let shared = dir.join("scene.toml");
+    for c in [&stem, &shared] {
+        if c.is_file() {
+            return Ok(c.clone());
+        }
+    }
+    Err(Error::input(
+        file,
+        "scene",
+        format!(
+            "no scene file: neither {} nor {} exists; pass --scene FILE (a TOML file with \
+             [material] youngs_modulus, poisson_ratio and one [[boundary]] per boundary part, \
+             see README \"Scene file\"; `fosls inspect` lists the boundary tags)",
+            stem.display(),
+            shared.display()
+        ),
+    ))
+}
+
+/// Whether a stress is symmetric to round-off: max |σxy − σyx| ≤ 1e-12 max |σ|.
+fn symmetric(sigma: &[[f64; 4]]) -> bool {
+    let (mut asym, mut max) = (0.0f64, 0.0f64);
+    for s in sigma {
+        asym = asym.max((s[1] - s[2]).abs());
+        max = s.iter().fold(max, |m, v| m.max(v.abs()));
+    }
+    asym <= 1e-12 * max
+}
+
+/// Adds the rebuilt fields to the output file: the reconstructed stress as cell averages
+/// (9 components, row-major, σ_zz = 0 as stored; one tuple per cell, zeros on lines) and the
+/// projected displacement as point data.
+fn add_reconstructed(
+    file: &mut crate::read::vtu::VtuFile,
+    data: &mesh::Dataset,
+    stress: Option<&reconstruct::stress::Reconstruction>,
+    displacement: Option<(&str, &[[f64; 2]])>,
+) {
+    use crate::read::{decode::Scalar, vtu::DataArray};
+    let ncells = file.cell_count();
+    if let Some(r) = stress {
+        let mut values = vec![0.0; 9 * ncells];
+        for t in 0..data.mesh.cells.len() {
+            let fam = data.mesh.family[t];
+            let x = data.mesh.coords(t);
+            // The mean of the sub-triangles' centroid values: the cell average for the affine
+            // part of the field on affine cells.
+            let subs = r.stress.subs(&data.mesh, t);
+            let mut s = [0.0; 4];
+            for k in 0..subs {
+                let c = [1.0 / 3.0, 1.0 / 3.0];
+                let js = crate::geometry::values::sub_point(
+                    fam,
+                    &x[..fam.nodes()],
+                    data.mesh.shape[t],
+                    k,
+                    c,
+                )
+                .jac;
+                let (v, _) = r.stress.at(r.stress.first[t] as usize + k, &js, c);
+                for m in 0..4 {
+                    s[m] += v[m] / subs as f64;
+                }
+            }
+            values[9 * t..9 * t + 9].copy_from_slice(&report::vtu::tensor9(s));
+        }
+        file.cell_data
+            .push(report::vtu::tensor_array("stress_reconstructed", values));
+    }
+    if let Some((name, u)) = displacement {
+        file.point_data.push(DataArray {
+            name: name.into(),
+            scalar: Scalar::Float64,
+            components: 2,
+            component_names: vec!["x".into(), "y".into()],
+            values: u.iter().flatten().copied().collect(),
+        });
+    }
+}
+
+/// Runs the audit (steps 1–5 of the module doc).
+pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
+    opts.validate()?;
+    let mut stages: Vec<(String, f64)> = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &str, stages: &mut Vec<(String, f64)>| {
+        stages.push((name.to_string(), clock.elapsed().as_secs_f64()));
+        clock = Instant::now();
+    };
+
+    progress.stage("reading the solution");
+    let vtu = read::vtu::read_vtu(&opts.file)?;
+    let data = mesh::build(vtu)?;
+    let topo = topology::build(&data)?;
+    progress.done();
+    lap("read", &mut stages);
+
+    let scene_path = find_scene(&opts.file, opts.scene.as_deref())?;
+    let scene: Scene = scene::load_scene(&scene_path)?;
+    let norm = match opts.norm {
+        None => scene.effective_norm(),
+        Some(Norm::Energy) if scene.material.is_incompressible() => {
+            return Err(Error::Usage(
+                "--norm energy: ν = 0.5 needs --norm robust or seed (docs/design.md §3)".into(),
+            ));
+        }
+        Some(n) => n,
+    };
+    let fields = problem::select_fields(&data, &scene)?;
+    let boundaries = problem::classify(&data, &topo, &scene)?;
+    lap("scene and fields", &mut stages);
+
+    let length_scale = scene
+        .estimate
+        .length_scale
+        .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
+    // The displacement: the file's, projected onto K_u in the energy norm when it penetrates
+    // or misses the Dirichlet data at the nodes (docs/design.md §5) unless --displacement file; or
+    // rebuilt from the file's nodal stress when the file holds none or it is asked for.
+    let file_u: Option<&[[f64; 2]]> = fields.displacement.as_deref();
+    let rebuild_reason = match (file_u, opts.displacement) {
+        (None, Source::File) => {
+            return Err(Error::input(
+                &opts.file,
+                "displacement",
+                "--displacement file: the file holds no displacement",
+            ));
+        }
+        (None, _) => Some(DisplacementReason::Absent),
+        (Some(_), Source::Reconstruct) => Some(DisplacementReason::Asked),
+        (Some(_), _) => None,
+    };
+    let rebuilt = match &rebuild_reason {
+        None => None,
+        Some(_) => {
+            if opts.stress == Source::Reconstruct {
+                return Err(Error::Usage(
+                    "--stress reconstruct: the displacement is reconstructed from the file's \
+                     stress, so the stress cannot be reconstructed too"
+                        .into(),
+                ));
+            }
+            let Stress::Nodal { values, .. } = &fields.stress else {
+                return Err(Error::input(
+                    &opts.file,
+                    "stress",
+                    "--displacement reconstruct: the displacement is rebuilt from the stress, \
+                     which must be a nodal (point-data) stress; this file has none",
+                ));
+            };
+            progress.stage("reconstructing the displacement");
+            let r = reconstruct::displacement::reconstruct(
+                &reconstruct::displacement::ReconstructInput {
+                    mesh: &data.mesh,
+                    topo: &topo,
+                    scene: &scene,
+                    edges: &boundaries.edges,
+                    sigma: StressField::Nodal(values),
+                    norm,
+                },
+            )
+            .map_err(|problem| Error::input(&opts.file, "displacement reconstruction", problem))?;
+            progress.done();
+            lap("reconstruct displacement", &mut stages);
+            Some(r)
+        }
+    };
+    let violations = file_u.map_or(0, |fu| {
+        reconstruct::displacement::nodal_violations(
+            &data.mesh,
+            &topo,
+            &scene,
+            &boundaries.edges,
+            fu,
+        )
+    });
+    let projection = match file_u {
+        Some(fu) if rebuilt.is_none() && violations > 0 && opts.displacement == Source::Auto => {
+            progress.stage("projecting the displacement onto K_u");
+            let p = reconstruct::displacement::project(
+                &data.mesh,
+                &topo,
+                &scene,
+                &boundaries.edges,
+                fu,
+                length_scale,
+            )
+            .map_err(|problem| Error::input(&opts.file, "displacement projection", problem))?;
+            progress.done();
+            lap("project displacement", &mut stages);
+            Some(p)
+        }
+        _ => None,
+    };
+    let u: &[[f64; 2]] = match (&rebuilt, &projection, file_u) {
+        (Some(r), _, _) => &r.displacement,
+        (None, Some(p), _) => &p.displacement,
+        (None, None, Some(fu)) => fu,
+        (None, None, None) => unreachable!("an absent displacement is reconstructed"),
+    };
+
+    let degree = opts.degree.unwrap_or(data.mesh.degree - 1);
+    let order = if degree == 0 {
+        RtOrder::Rt0
+    } else {
+        RtOrder::Rt1
+    };
+    let frictional = scene
+        .boundaries
+        .iter()
+        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
+    let reconstruct_reason = match (&fields.stress, opts.stress) {
+        (_, Source::Reconstruct) => Some(StressReason::Asked),
+        // A conforming but inadmissible stress (tension, traction outside the cone, wrong
+        // traction data) is rebuilt in K_σ under `auto` (docs/design.md §5).
+        (Stress::Nodal { values, name, .. }, Source::Auto) => {
+            let field = StressField::Nodal(values);
+            let check = estimate::boundary::boundary(&estimate::boundary::Input {
+                mesh: &data.mesh,
+                u,
+                sigma: field,
+                scene: &scene,
+                edges: &boundaries.edges,
+            });
+            let failures: Vec<String> = estimate::failed_checks(
+                &check.admissibility,
+                u,
+                field.scale(&data.mesh),
+                frictional,
+            )
+            .into_iter()
+            .filter(|f| f.starts_with("σ_h"))
+            .collect();
+            (!failures.is_empty()).then(|| StressReason::Inadmissible {
+                name: name.clone(),
+                failures,
+            })
+        }
+        (Stress::Nodal { .. }, Source::File) => None,
+        (Stress::Cell { name, .. }, Source::Auto) => {
+            Some(StressReason::CellData { name: name.clone() })
+        }
+        (Stress::Cell { name, .. }, Source::File) => {
+            return Err(Error::input(
+                &opts.file,
+                format!("cell array \"{name}\""),
+                "--stress file: a cell-data stress is not H(div)-conforming and cannot be \
+                 evaluated as is (use --stress auto or reconstruct)",
+            ));
+        }
+        (Stress::Absent, Source::File) => {
+            return Err(Error::input(
+                &opts.file,
+                "stress",
+                "--stress file: the file holds no stress field",
+            ));
+        }
+        (Stress::Absent, Source::Auto) => Some(StressReason::Absent),
+    };
+    let reconstruction = match &reconstruct_reason {
+        None => None,
+        Some(_) => {
+            progress.stage("reconstructing the stress");
+            let r = reconstruct::stress::reconstruct(&reconstruct::stress::Input {
+                mesh: &data.mesh,
+                scene: &scene,
+                u,
+                edges: &boundaries.edges,
+                norm,
+                length_scale,
+                order,
+            })
+            .map_err(|problem| Error::input(&opts.file, "stress reconstruction", problem))?;
+            progress.done();
+            lap("reconstruct stress", &mut stages);
+            Some(r)
+        }
+    };
+    let (sigma, stress_info, symmetric) = match (&fields.stress, &reconstruction) {
+        (_, Some(r)) => (
+            StressField::Rt(&r.stress),
+            report::FieldInfo {
+                source: "reconstructed".into(),
+                name: String::new(),
+                space: format!("RT_{degree} row-wise (global minimiser of F)"),
+                reason: reconstruct_reason
+                    .as_ref()
+                    .map(|r| r.to_string())
+                    .unwrap_or_default(),
+            },
+            false,
+        ),
+        (
+            Stress::Nodal {
+                values,
+                name,
+                layout,
+            },
+            None,
+        ) => (
+            StressField::Nodal(values),
+            report::FieldInfo {
+                source: "file".into(),
+                name: name.clone(),
+                space: format!(
+                    "P{} nodal, continuous (H(div)-conforming), layout {layout}",
+                    data.mesh.degree
+                ),
+                reason: "conforming nodal stress, used as is".into(),
+            },
+            symmetric(values),
+        ),
+        _ => unreachable!("a stress that is not nodal is reconstructed"),
+    };
+
+    progress.stage("evaluating the functional");
+    let mut est: Estimate = estimate::run(&estimate::Input {
+        mesh: &data.mesh,
+        scene: &scene,
+        u,
+        sigma,
+        edges: &boundaries.edges,
+        norm,
+        symmetric_stress: symmetric,
+    });
+    // The findings on the displacement are the file's (what the user must hear about); F and
+    // the rest use the projection.
+    let mut projected_findings = None;
+    if let (Some(_), Some(fu)) = (&projection, file_u) {
+        let file = estimate::boundary::boundary(&estimate::boundary::Input {
+            mesh: &data.mesh,
+            u: fu,
+            sigma,
+            scene: &scene,
+            edges: &boundaries.edges,
+        });
+        projected_findings = Some((
+            est.admissibility.penetration.max,
+            est.admissibility.dirichlet.max,
+        ));
+        est.admissibility.penetration = file.admissibility.penetration;
+        est.admissibility.dirichlet = file.admissibility.dirichlet;
+    }
+    progress.done();
+    lap("evaluate", &mut stages);
+
+    let marked = opts.mark.map(|theta| report::Marking {
+        theta,
+        cells: report::mark::dorfler(&report::eta_squared(&est.cells), theta),
+    });
+    let mut notes = fields.notes.clone();
+    notes.extend(boundaries.notes.iter().cloned());
+    if let Some(m) = &data.report.merge {
+        notes.push(format!(
+            "{}: {} node copies merged into {} nodes",
+            if m.exploded {
+                "exploded mesh"
+            } else {
+                "pieces"
+            },
+            m.points_in_file,
+            m.points_merged
+        ));
+    }
+    let failed = estimate::failed_checks(
+        &est.admissibility,
+        file_u.unwrap_or(u),
+        sigma.scale(&data.mesh),
+        frictional,
+    );
+    if let Some(p) = &projection {
+        notes.push(format!(
+            "displacement projected onto K_u: {} inadmissible nodes; {} active contact \
+             constraints, {} iterations, KKT residual {:.2e}; ‖ũ_h − u_h‖_E = {:.6e}",
+            p.violations, p.info.active, p.info.iterations, p.info.kkt_residual, p.distance
+        ));
+        notes.extend(reconstruct::condition::warning(
+            &p.info,
+            "displacement projection",
+        ));
+        if let Some((pen, dir)) = projected_findings {
+            notes.push(format!(
+                "after the projection: penetration max {pen:.3e} (between nodes: the \
+                 constraint holds at the nodes), Dirichlet mismatch max {dir:.3e}; the \
+                 admissibility table shows the file's displacement"
+            ));
+        }
+    }
+    if let Some(r) = &rebuilt {
+        notes.push(format!(
+            "displacement reconstruction: {} unknowns, {} active-set iterations, {} active \
+             contact constraints, KKT residual {:.2e}{}",
+            r.info.unknowns,
+            r.info.iterations,
+            r.info.active,
+            r.info.kkt_residual,
+            if r.stick + r.slip > 0 {
+                format!(
+                    "; friction (v_t split into a − b ≥ 0): {} QP solves{}, {} stick and {} slip \
+                     nodes, {} held at v_t = 0 by the remedy (sign change of v_t inside an edge)",
+                    r.friction_iterations,
+                    if r.friction_converged {
+                        ""
+                    } else {
+                        " (NOT settled: cap on the remedy rounds)"
+                    },
+                    r.stick,
+                    r.slip,
+                    r.remedied
+                )
+            } else {
+                String::new()
+            }
+        ));
+        notes.extend(reconstruct::condition::warning(
+            &r.info,
+            "displacement reconstruction",
+        ));
+    }
+    if let Some(r) = &reconstruction {
+        notes.push(format!(
+            "stress reconstruction: {} unknowns, {} nonzeros, {} active-set iterations{}, {} \
+             active contact constraints, KKT residual {:.2e}",
+            r.info.unknowns,
+            r.info.nonzeros,
+            r.info.iterations,
+            if r.info.converged {
+                ""
+            } else {
+                " (NOT converged: iteration cap)"
+            },
+            r.info.active,
+            r.info.kkt_residual
+        ));
+        notes.extend(reconstruct::condition::warning(
+            &r.info,
+            "stress reconstruction",
+        ));
+    }
+    let run = report::Run {
+        solution: opts.file.clone(),
+        scene: scene_path,
+        version: env!("CARGO_PKG_VERSION"),
+        displacement: report::FieldInfo {
+            source: if projection.is_some() || rebuilt.is_some() {
+                "reconstructed"
+            } else {
+                "file"
+            }
+            .into(),
+            name: fields.displacement_name.clone().unwrap_or_default(),
+            space: if rebuilt.is_some() {
+                format!(
+                    "P{} nodal (minimiser of F(·, σ_h) on K_u)",
+                    data.mesh.degree
+                )
+            } else {
+                format!("P{} nodal", data.mesh.degree)
+            },
+            reason: match (&rebuild_reason, &projection) {
+                (Some(why), _) => why.to_string(),
+                (None, Some(p)) => format!(
+                    "projected onto K_u in the energy norm: {} nodes penetrate the obstacle or \
+                     miss the Dirichlet data",
+                    p.violations
+                ),
+                (None, None) if violations > 0 => format!(
+                    "used as is (--displacement file) although {violations} nodes are \
+                     inadmissible"
+                ),
+                (None, None) => "conforming and admissible at the nodes, used as is".into(),
+            },
+        },
+        displacement_degree: data.mesh.degree,
+        stress: stress_info,
+        notes,
+        stages: stages
+            .iter()
+            .map(|(name, seconds)| report::Stage {
+                name: name.clone(),
+                seconds: *seconds,
+            })
+            .collect(),
+        boundaries: boundaries
+            .per_boundary
+            .iter()
+            .zip(&scene.boundaries)
+            .map(|(s, b)| report::BoundaryInfo {
+                name: s.name.clone(),
+                kind: b.kind.as_str().to_string(),
+                edges: s.edges,
+                length: s.length,
+            })
+            .collect(),
+        marked,
+        projection_distance: projection.as_ref().map(|p| p.distance),
+    };
+
+    let nodal_stress = match (&fields.stress, &reconstruction) {
+        (Stress::Nodal { values, .. }, None) => Some(values.clone()),
+        _ => None,
+    };
+    let u = u.to_vec();
+    Ok(Audit {
+        data,
+        estimate: est,
+        run,
+        failed,
+        stress_reconstruction: reconstruction,
+        displacement_reconstruction: rebuilt,
+        projection,
+        u,
+        nodal_stress,
+    })
+}
+
+/// Writes the `--output` VTU (and its discontinuous copy when a field was rebuilt).
+pub fn write_outputs(audit: &Audit, out: &Path) -> Result<(), Error> {
+    let (data, est, run) = (&audit.data, &audit.estimate, &audit.run);
+    let (reconstruction, rebuilt, projection) = (
+        &audit.stress_reconstruction,
+        &audit.displacement_reconstruction,
+        &audit.projection,
+    );
+    let (sigma, u) = (audit.sigma(), audit.u.as_slice());
+    {
+        let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
+        let mut file = report::vtu::output_file(out, data, est, cells);
+        let displacement = match (&rebuilt, &projection) {
+            (Some(r), _) => Some(("displacement_reconstructed", r.displacement.as_slice())),
+            (None, Some(p)) => Some(("displacement_projected", p.displacement.as_slice())),
+            _ => None,
+        };
+        add_reconstructed(&mut file, data, reconstruction.as_ref(), displacement);
+        crate::write::write_vtu(out, &file, crate::write::Placement::AppendedRaw)?;
+        if reconstruction.is_some() || rebuilt.is_some() || projection.is_some() {
+            let copy = report::vtu::discontinuous_path(out);
+            let file = report::vtu::discontinuous_file(&copy, &data.mesh, sigma, u, est);
+            crate::write::write_vtu(&copy, &file, crate::write::Placement::AppendedRaw)?;
+        }
+    }
+    Ok(())
+}
