@@ -142,7 +142,7 @@ pub struct Audit {
     pub failed: Vec<String>,
     pub stress_reconstruction: Option<reconstruct::stress::Reconstruction>,
     pub displacement_reconstruction: Option<reconstruct::displacement::Reconstruction>,
-    pub projection: Option<reconstruct::displacement::Projection>,
+    pub projection: Option<reconstruct::projection::Projection>,
     /// The displacement the estimate used.
     pub u: Vec<[f64; 2]>,
     /// The file's nodal stress, when it was used.
@@ -247,6 +247,18 @@ fn add_reconstructed(
     }
 }
 
+/// The warning for the report when `info.condition_estimate` exceeds [`crate::solve::condition::WARN_ABOVE`].
+fn condition_warning(info: &crate::solve::SolveInfo, what: &str) -> Option<String> {
+    let kappa = info.condition_estimate;
+    (kappa > crate::solve::condition::WARN_ABOVE).then(|| {
+        format!(
+            "warning: {what}: condition estimate {kappa:.1e} > 1e8; the reconstructed field (and \
+             F) may have lost more than half of their 16 digits (about {:.0} lost)",
+            kappa.log10().min(16.0)
+        )
+    })
+}
+
 /// Runs the audit (steps 1–5 of the module doc).
 pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     opts.validate()?;
@@ -279,10 +291,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let boundaries = problem::classify(&data, &topo, &scene)?;
     lap("scene and fields", &mut stages);
 
-    let length_scale = scene
-        .estimate
-        .length_scale
-        .unwrap_or_else(|| estimate::diameter(&data.mesh.points) / std::f64::consts::PI);
+    let ctx = problem::Context::new(&data.mesh, &topo, &scene, &boundaries.edges, norm);
     // The displacement: the file's, projected onto K_u in the energy norm when it penetrates
     // or misses the Dirichlet data at the nodes (docs/design.md §5) unless --displacement file; or
     // rebuilt from the file's nodal stress when the file holds none or it is asked for.
@@ -318,43 +327,21 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                 ));
             };
             progress.stage("reconstructing the displacement");
-            let r = reconstruct::displacement::reconstruct(
-                &reconstruct::displacement::ReconstructInput {
-                    mesh: &data.mesh,
-                    topo: &topo,
-                    scene: &scene,
-                    edges: &boundaries.edges,
-                    sigma: StressField::Nodal(values),
-                    norm,
-                },
-            )
-            .map_err(|problem| Error::input(&opts.file, "displacement reconstruction", problem))?;
+            let r = reconstruct::displacement::reconstruct(&ctx, StressField::Nodal(values))
+                .map_err(|problem| {
+                    Error::input(&opts.file, "displacement reconstruction", problem)
+                })?;
             progress.done();
             lap("reconstruct displacement", &mut stages);
             Some(r)
         }
     };
-    let violations = file_u.map_or(0, |fu| {
-        reconstruct::displacement::nodal_violations(
-            &data.mesh,
-            &topo,
-            &scene,
-            &boundaries.edges,
-            fu,
-        )
-    });
+    let violations = file_u.map_or(0, |fu| reconstruct::projection::nodal_violations(&ctx, fu));
     let projection = match file_u {
         Some(fu) if rebuilt.is_none() && violations > 0 && opts.displacement == Source::Auto => {
             progress.stage("projecting the displacement onto K_u");
-            let p = reconstruct::displacement::project(
-                &data.mesh,
-                &topo,
-                &scene,
-                &boundaries.edges,
-                fu,
-                length_scale,
-            )
-            .map_err(|problem| Error::input(&opts.file, "displacement projection", problem))?;
+            let p = reconstruct::projection::project(&ctx, fu)
+                .map_err(|problem| Error::input(&opts.file, "displacement projection", problem))?;
             progress.done();
             lap("project displacement", &mut stages);
             Some(p)
@@ -384,13 +371,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         // traction data) is rebuilt in K_σ under `auto` (docs/design.md §5).
         (Stress::Nodal { values, name, .. }, Source::Auto) => {
             let field = StressField::Nodal(values);
-            let check = estimate::boundary::boundary(&estimate::boundary::Input {
-                mesh: &data.mesh,
-                u,
-                sigma: field,
-                scene: &scene,
-                edges: &boundaries.edges,
-            });
+            let check = estimate::boundary::boundary(&ctx, u, field);
             let failures: Vec<String> = estimate::failed_checks(
                 &check.admissibility,
                 u,
@@ -430,16 +411,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         None => None,
         Some(_) => {
             progress.stage("reconstructing the stress");
-            let r = reconstruct::stress::reconstruct(&reconstruct::stress::Input {
-                mesh: &data.mesh,
-                scene: &scene,
-                u,
-                edges: &boundaries.edges,
-                norm,
-                length_scale,
-                order,
-            })
-            .map_err(|problem| Error::input(&opts.file, "stress reconstruction", problem))?;
+            let r = reconstruct::stress::reconstruct(&ctx, u, order)
+                .map_err(|problem| Error::input(&opts.file, "stress reconstruction", problem))?;
             progress.done();
             lap("reconstruct stress", &mut stages);
             Some(r)
@@ -483,26 +456,12 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     };
 
     progress.stage("evaluating the functional");
-    let mut est: Estimate = estimate::run(&estimate::Input {
-        mesh: &data.mesh,
-        scene: &scene,
-        u,
-        sigma,
-        edges: &boundaries.edges,
-        norm,
-        symmetric_stress: symmetric,
-    });
+    let mut est: Estimate = estimate::run(&ctx, u, sigma, symmetric);
     // The findings on the displacement are the file's (what the user must hear about); F and
     // the rest use the projection.
     let mut projected_findings = None;
     if let (Some(_), Some(fu)) = (&projection, file_u) {
-        let file = estimate::boundary::boundary(&estimate::boundary::Input {
-            mesh: &data.mesh,
-            u: fu,
-            sigma,
-            scene: &scene,
-            edges: &boundaries.edges,
-        });
+        let file = estimate::boundary::boundary(&ctx, fu, sigma);
         projected_findings = Some((
             est.admissibility.penetration.max,
             est.admissibility.dirichlet.max,
@@ -543,10 +502,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
              constraints, {} iterations, KKT residual {:.2e}; ‖ũ_h − u_h‖_E = {:.6e}",
             p.violations, p.info.active, p.info.iterations, p.info.kkt_residual, p.distance
         ));
-        notes.extend(reconstruct::condition::warning(
-            &p.info,
-            "displacement projection",
-        ));
+        notes.extend(condition_warning(&p.info, "displacement projection"));
         if let Some((pen, dir)) = projected_findings {
             notes.push(format!(
                 "after the projection: penetration max {pen:.3e} (between nodes: the \
@@ -581,10 +537,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                 String::new()
             }
         ));
-        notes.extend(reconstruct::condition::warning(
-            &r.info,
-            "displacement reconstruction",
-        ));
+        notes.extend(condition_warning(&r.info, "displacement reconstruction"));
     }
     if let Some(r) = &reconstruction {
         notes.push(format!(
@@ -601,10 +554,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             r.info.active,
             r.info.kkt_residual
         ));
-        notes.extend(reconstruct::condition::warning(
-            &r.info,
-            "stress reconstruction",
-        ));
+        notes.extend(condition_warning(&r.info, "stress reconstruction"));
     }
     let run = report::Run {
         solution: opts.file.clone(),
@@ -709,4 +659,24 @@ pub fn write_outputs(audit: &Audit, out: &Path) -> Result<(), Error> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warning_only_above_the_threshold() {
+        let mut info = crate::solve::SolveInfo {
+            condition_estimate: 3e7,
+            ..crate::solve::SolveInfo::default()
+        };
+        assert_eq!(condition_warning(&info, "stress reconstruction"), None);
+        info.condition_estimate = 2.5e11;
+        assert_eq!(
+            condition_warning(&info, "stress reconstruction").unwrap(),
+            "warning: stress reconstruction: condition estimate 2.5e11 > 1e8; the reconstructed \
+             field (and F) may have lost more than half of their 16 digits (about 11 lost)"
+        );
+    }
 }

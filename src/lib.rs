@@ -20,6 +20,8 @@ pub mod quadrature;
 pub mod read;
 pub mod reconstruct;
 pub mod report;
+pub mod scene;
+pub mod solve;
 pub mod tolerance;
 pub mod topology;
 pub mod write;

@@ -24,13 +24,13 @@ use crate::expr::Expr;
 use crate::field::{RtStress, StressField};
 use crate::geometry::{Family, MAX_NODES, facet_point};
 use crate::mesh::{Mesh, NONE};
-use crate::problem::{BoundaryEdge, Condition};
+use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::line_rule_cached;
 use crate::read::scene::{BoundaryKind, Contact as ContactSpec, Scene};
 use crate::tolerance::{EDGE_DEGREE, EDGE_SAMPLES, GAP_RELATIVE, STATE_RELATIVE};
 
-/// What the boundary pass needs.
-pub struct Input<'a> {
+/// What the boundary pass needs (built from the [`Context`]).
+struct Input<'a> {
     pub mesh: &'a Mesh,
     pub u: &'a [[f64; 2]],
     pub sigma: StressField<'a>,
@@ -308,8 +308,16 @@ struct Piece {
     length: f64,
 }
 
-/// Evaluates the boundary terms, the admissibility checks and the contact zone.
-pub fn boundary(inp: &Input) -> Boundary {
+/// Evaluates the boundary terms, the admissibility checks and the contact zone of `u` and
+/// `sigma` in the problem `ctx`.
+pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
+    let inp = &Input {
+        mesh: ctx.mesh,
+        u,
+        sigma,
+        scene: ctx.scene,
+        edges: ctx.edges,
+    };
     let ncells = inp.mesh.cells.len();
     let mut out = Boundary {
         complementarity: vec![0.0; ncells],

@@ -188,15 +188,8 @@ fn exact(nu: f64, norm: Norm, perturb: impl Fn([f64; 2]) -> [f64; 4]) -> (Estima
     let f = [-(dx(0) + dy(1)), -(dx(2) + dy(3))];
     let sc = scene(nu, norm.as_str(), f);
     let e = edges(&d, &t);
-    let est = run(&Input {
-        mesh: &d.mesh,
-        scene: &sc,
-        u: &u,
-        sigma: StressField::Nodal(&sigma),
-        edges: &e,
-        norm,
-        symmetric_stress: true,
-    });
+    let ctx = crate::problem::Context::new(&d.mesh, &t, &sc, &e, norm);
+    let est = run(&ctx, &u, StressField::Nodal(&sigma), true);
     (est, el.mu)
 }
 

@@ -18,10 +18,11 @@ use crate::geometry::values::interior_table;
 use crate::geometry::{CellValues, Family, MAX_NODES, Shape};
 use crate::material::Elastic;
 use crate::mesh::Mesh;
+use crate::problem::Context;
 use crate::read::scene::Norm;
 
-/// What the interior terms need.
-pub struct Input<'a> {
+/// What the interior terms need (built from the [`Context`]).
+struct Input<'a> {
     pub mesh: &'a Mesh,
     /// Displacement per mesh point.
     pub u: &'a [[f64; 2]],
@@ -40,8 +41,17 @@ pub struct Interior {
     pub energy: Vec<f64>,
 }
 
-/// The interior terms and the energy of every cell.
-pub fn interior(inp: &Input) -> Interior {
+/// The interior terms and the energy of every cell of `u` and `sigma` in the problem `ctx`.
+pub fn interior(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Interior {
+    let inp = &Input {
+        mesh: ctx.mesh,
+        u,
+        sigma,
+        elastic: ctx.elastic,
+        norm: ctx.norm,
+        w_d: ctx.elastic.equilibrium_weight(ctx.norm, ctx.length_scale),
+        body_force: ctx.scene.body_force.as_ref(),
+    };
     let constant_f = inp
         .body_force
         .is_none_or(|f| f[0].is_constant() && f[1].is_constant());

@@ -138,51 +138,37 @@ pub mod boundary;
 pub mod interior;
 
 use crate::mesh::Mesh;
-use crate::problem::BoundaryEdge;
+use crate::problem::Context;
 use crate::read::scene::Scene;
 
 pub use crate::field::StressField;
 pub use crate::tolerance::ADMISSIBLE_RELATIVE as ADMISSIBLE_TOLERANCE;
 
-/// What [`run`] needs.
-pub struct Input<'a> {
-    pub mesh: &'a Mesh,
-    pub scene: &'a Scene,
-    /// Displacement per mesh point.
-    pub u: &'a [[f64; 2]],
-    pub sigma: StressField<'a>,
-    /// Every boundary edge with its condition.
-    pub edges: &'a [BoundaryEdge],
-    pub norm: Norm,
-    /// Whether σ_h is symmetric by construction (a symmetric layout in the file).
-    pub symmetric_stress: bool,
+/// What the rest of [`run`] reads.
+struct Input<'a> {
+    mesh: &'a Mesh,
+    scene: &'a Scene,
+    u: &'a [[f64; 2]],
+    sigma: StressField<'a>,
+    norm: Norm,
+    symmetric_stress: bool,
 }
 
-/// Evaluates F and everything around it (docs/design.md §3, §5, §6).
-pub fn run(inp: &Input) -> Estimate {
-    let elastic = crate::material::Elastic::new(&inp.scene.material);
-    let length_scale = inp
-        .scene
-        .estimate
-        .length_scale
-        .unwrap_or_else(|| diameter(&inp.mesh.points) / std::f64::consts::PI);
-    let w_d = elastic.equilibrium_weight(inp.norm, length_scale);
-    let interior = interior::interior(&interior::Input {
-        mesh: inp.mesh,
-        u: inp.u,
-        sigma: inp.sigma,
-        elastic,
-        norm: inp.norm,
-        w_d,
-        body_force: inp.scene.body_force.as_ref(),
-    });
-    let boundary = boundary::boundary(&boundary::Input {
-        mesh: inp.mesh,
-        u: inp.u,
-        sigma: inp.sigma,
-        scene: inp.scene,
-        edges: inp.edges,
-    });
+/// Evaluates F and everything around it for `u` and `sigma` in the problem `ctx`
+/// (docs/design.md §3, §5, §6); `symmetric_stress`: σ_h is symmetric by construction (a
+/// symmetric layout in the file).
+pub fn run(ctx: &Context, u: &[[f64; 2]], sigma: StressField, symmetric_stress: bool) -> Estimate {
+    let inp = &Input {
+        mesh: ctx.mesh,
+        scene: ctx.scene,
+        u,
+        sigma,
+        norm: ctx.norm,
+        symmetric_stress,
+    };
+    let length_scale = ctx.length_scale;
+    let interior = interior::interior(ctx, u, sigma);
+    let boundary = boundary::boundary(ctx, u, sigma);
     let cells = CellTerms {
         constitutive: interior.constitutive,
         equilibrium: interior.equilibrium,
@@ -304,44 +290,7 @@ fn bound(inp: &Input, f: &Terms, energy: f64, adm: &Admissibility) -> Bound {
     }
 }
 
-/// The diameter of a point set: the largest distance between two points, over the convex
-/// hull (Andrew's monotone chain), O(n log n).
-pub fn diameter(points: &[[f64; 2]]) -> f64 {
-    let mut p: Vec<[f64; 2]> = points.to_vec();
-    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-    p.dedup();
-    if p.len() < 2 {
-        return 0.0;
-    }
-    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
-        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-    };
-    let mut hull: Vec<[f64; 2]> = Vec::new();
-    for pass in 0..2 {
-        let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
-            Box::new(p.iter())
-        } else {
-            Box::new(p.iter().rev())
-        };
-        for &q in iter {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
-            {
-                hull.pop();
-            }
-            hull.push(q);
-        }
-        hull.pop();
-    }
-    let mut d = 0.0f64;
-    for i in 0..hull.len() {
-        for j in i + 1..hull.len() {
-            d = d.max((hull[i][0] - hull[j][0]).hypot(hull[i][1] - hull[j][1]));
-        }
-    }
-    d
-}
+pub use crate::geometry::point_set_diameter as diameter;
 
 #[cfg(test)]
 mod tests {

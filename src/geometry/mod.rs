@@ -272,6 +272,45 @@ pub fn diameter(family: Family, x: &[[f64; 2]]) -> f64 {
     h
 }
 
+/// The diameter of a point set: the largest distance between two points, over the convex
+/// hull (Andrew's monotone chain), O(n log n).
+pub fn point_set_diameter(points: &[[f64; 2]]) -> f64 {
+    let mut p: Vec<[f64; 2]> = points.to_vec();
+    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    p.dedup();
+    if p.len() < 2 {
+        return 0.0;
+    }
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(p.iter())
+        } else {
+            Box::new(p.iter().rev())
+        };
+        for &q in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    let mut d = 0.0f64;
+    for i in 0..hull.len() {
+        for j in i + 1..hull.len() {
+            d = d.max((hull[i][0] - hull[j][0]).hypot(hull[i][1] - hull[j][1]));
+        }
+    }
+    d
+}
+
 /// Classifies a cell: curved if any high-order node is off its straight position by more than
 /// `rel_tol · h_T`, bilinear if a quadrilateral's vertices are no parallelogram to the same
 /// tolerance, else affine.

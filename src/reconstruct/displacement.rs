@@ -1,462 +1,28 @@
-//! Projection of an inadmissible displacement onto K_u (docs/design.md §5):
-//!
-//! ```text
-//! ũ_h = argmin { ½ a(v − u_h, v − u_h) : v ∈ P_k(T_h)², v = u_D at the Dirichlet nodes,
-//!                 v_n ≤ g at the contact nodes },
-//! ```
-//!
-//! a(v, w) = ∫ Cε(v) : ε(w) the energy inner product (2μ ε:ε for λ = ∞), on the Lagrange nodes
-//! of the mesh. At a contact node v = n (g + z) + t w with z ≤ 0: a bound on a single unknown,
-//! solved by [`super::solve::solve_bound_qp`]. The estimate then uses ũ_h, and the computable
-//! distance ‖ũ_h − u_h‖_E is added to the error bound by the triangle inequality.
-//! Without Dirichlet nodes the energy form has rigid motions in its kernel; a small L² term
-//! (μ/ℓ² times the lumped mass) then makes the projection unique.
+//! Displacement reconstruction from a stress (docs/design.md §5.7): u_h = argmin F(·, σ_h) over
+//! the mesh's Lagrange space with v = u_D and v_n ≤ g at the nodes, a bound-constrained QP in
+//! the contact frames of [`super::nodal`]; with Coulomb friction the lumped |v_t| is split as
+//! v_t = a − b, a, b ≥ 0, and the talk's remedy holds v_t = 0 where it changes sign in an edge.
 
-use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
+use super::nodal::{CellTables, Frames, Tangential, boundary_nodes, stiffness, strain};
 use crate::field::StressField;
-use crate::geometry::values::{interior_table, rule_degree};
-use crate::geometry::{CellValues, Family, MAX_NODES, Shape, Table, facet_point, table};
+use crate::geometry::values::interior_table;
+use crate::geometry::{MAX_NODES, facet_point};
 use crate::material::Elastic;
 use crate::mesh::{Mesh, NONE};
-use crate::problem::{BoundaryEdge, Condition};
+use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::line_rule_cached;
 use crate::read::scene::{BoundaryKind, Norm, Scene};
+use crate::solve::{Lower, SolveInfo, solve_bound_qp_from};
 use crate::topology::Topology;
 
-/// The projected displacement and what it took.
-pub struct Projection {
-    pub displacement: Vec<[f64; 2]>,
-    /// ‖ũ_h − u_h‖_E.
-    pub distance: f64,
-    pub info: SolveInfo,
-    /// Contact and Dirichlet nodes where u_h was inadmissible before.
-    pub violations: usize,
-}
-
-/// Nodal admissibility of `u`: the number of Dirichlet nodes off u_D and of contact nodes
-/// with n·u > g, beyond `ADMISSIBLE_TOLERANCE` × max |u|.
-pub fn nodal_violations(
-    mesh: &Mesh,
-    topo: &Topology,
-    scene: &Scene,
-    edges: &[BoundaryEdge],
-    u: &[[f64; 2]],
-) -> usize {
-    let (dir, con) = boundary_nodes(mesh, topo, scene, edges);
-    let umax = u
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
-    let tol = crate::estimate::ADMISSIBLE_TOLERANCE * umax;
-    let mut n = 0;
-    for (p, d) in dir.iter().enumerate() {
-        if let Some(ud) = d {
-            if (u[p][0] - ud[0]).hypot(u[p][1] - ud[1]) > tol {
-                n += 1;
-            }
-        } else if let Some((normal, g)) = con[p]
-            && normal[0] * u[p][0] + normal[1] * u[p][1] - g > tol
-        {
-            n += 1;
-        }
-    }
-    n
-}
-
-/// Dirichlet values and contact (direction, gap) per mesh node; Dirichlet wins where both.
-#[allow(clippy::type_complexity)]
-fn boundary_nodes(
-    mesh: &Mesh,
-    topo: &Topology,
-    scene: &Scene,
-    edges: &[BoundaryEdge],
-) -> (Vec<Option<[f64; 2]>>, Vec<Option<([f64; 2], f64)>>) {
-    let np = mesh.points.len();
-    let mut dir = vec![None; np];
-    let mut normal_sum = vec![[0.0f64; 2]; np];
-    let mut contact_of = vec![None::<usize>; np];
-    for be in edges {
-        let [a, b] = topo.edges[be.edge as usize];
-        let mid = topo.edge_mid[be.edge as usize];
-        let nodes = [a, b, mid];
-        let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
-        // Outward normal of the chord (the owner runs local edge counter-clockwise).
-        let [ea, eb, _] = mesh.edge(be.cell as usize, be.local as usize);
-        let (s, e) = (mesh.points[ea as usize], mesh.points[eb as usize]);
-        let t = [e[0] - s[0], e[1] - s[1]];
-        let len = t[0].hypot(t[1]);
-        let n_out = [t[1] / len, -t[0] / len];
-        let _ = (pa, pb);
-        match be.condition {
-            Condition::Dirichlet(bi) => {
-                if let BoundaryKind::Dirichlet { displacement } = &scene.boundaries[bi].kind {
-                    for &p in nodes.iter().filter(|&&p| p != NONE) {
-                        let x = mesh.points[p as usize];
-                        dir[p as usize] = Some([
-                            displacement[0].eval(x[0], x[1], 0.0),
-                            displacement[1].eval(x[0], x[1], 0.0),
-                        ]);
-                    }
-                }
-            }
-            Condition::Contact(bi) => {
-                for &p in nodes.iter().filter(|&&p| p != NONE) {
-                    normal_sum[p as usize][0] += n_out[0];
-                    normal_sum[p as usize][1] += n_out[1];
-                    contact_of[p as usize] = Some(bi);
-                }
-            }
-            _ => {}
-        }
-    }
-    let mut con = vec![None; np];
-    for p in 0..np {
-        let Some(bi) = contact_of[p] else { continue };
-        if dir[p].is_some() {
-            continue;
-        }
-        let BoundaryKind::Contact(spec) = &scene.boundaries[bi].kind else {
-            continue;
-        };
-        let s = normal_sum[p];
-        let l = s[0].hypot(s[1]);
-        let n_body = [s[0] / l, s[1] / l];
-        let n = spec.direction(n_body);
-        con[p] = Some((n, spec.gap_at(mesh.points[p], n)));
-    }
-    (dir, con)
-}
-
-/// The lower triangle of ∫ a ε(v):ε(w) + b tr ε(v) tr ε(w) over the 2·np nodal unknowns
-/// (x and y of each mesh node interleaved), and the lumped mass per node. Quadrature is exact
-/// on straight cells (degree 2(k − 1)) and of degree [`CURVED_DEGREE`] on curved ones.
-fn stiffness(mesh: &Mesh, a: f64, b: f64) -> (Vec<(usize, usize, f64)>, Vec<f64>) {
-    let np = mesh.points.len();
-    let mut entries: Vec<(usize, usize, f64)> = Vec::new();
-    let mut lumped = vec![0.0; np];
-    let mut tables = CellTables::new(|f, sh| {
-        let p = f.degree();
-        let deg = if f.is_quad() { 2 * p } else { 2 * (p - 1) };
-        table(f, rule_degree(sh, deg), false)
-    });
-    for t in 0..mesh.len() {
-        let nodes = mesh.nodes(t);
-        let nn = nodes.len();
-        let x = mesh.coords(t);
-        let cv = tables.get(mesh, t);
-        cv.reinit(&x[..nn], mesh.shape[t]);
-        let mut k = vec![0.0; 4 * nn * nn];
-        for q in 0..cv.len() {
-            let wd = cv.jxw[q];
-            for p in 0..nn {
-                lumped[nodes[p] as usize] += wd / nn as f64;
-            }
-            let gp = &cv.grad[q];
-            // ε of the basis function (node i, component c): sym(e_c ⊗ ∇φ_i).
-            for i in 0..nn {
-                for c in 0..2 {
-                    let ei = strain(c, gp[i]);
-                    for j in 0..nn {
-                        for d in 0..2 {
-                            let ej = strain(d, gp[j]);
-                            let dd = ei[0] * ej[0] + 2.0 * ei[1] * ej[1] + ei[2] * ej[2];
-                            let tr = (ei[0] + ei[2]) * (ej[0] + ej[2]);
-                            k[((2 * i + c) * nn + j) * 2 + d] += wd * (a * dd + b * tr);
-                        }
-                    }
-                }
-            }
-        }
-        for i in 0..nn {
-            for c in 0..2 {
-                for j in 0..nn {
-                    for d in 0..2 {
-                        let (gi, gj) = (2 * nodes[i] as usize + c, 2 * nodes[j] as usize + d);
-                        if gi >= gj {
-                            entries.push((gi, gj, k[((2 * i + c) * nn + j) * 2 + d]));
-                        }
-                    }
-                }
-            }
-        }
-    }
-    (entries, lumped)
-}
-
-/// What the tangential unknown of a contact node may do (always `Free` for a projection).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Tangential {
-    Free,
-    /// v_t = 0 (the talk's remedy).
-    Zero,
-    /// v_t = a − b with a, b ≥ 0, for the friction term c_p |v_t(p)| = c_p (a + b) at the
-    /// minimiser (where at most one of a, b is positive).
-    Split,
-}
-
-/// The change of variables v = v₀ + T y of the nodal QPs: T is the identity except at contact
-/// nodes, where v = n (g + y₀) + t y₁, or with `Split` v = n (g + y₀) + t (y_b − y₁) with the
-/// extra variable y_b (a = −y₁, b = −y_b), so that every bound reads y ≤ 0; Dirichlet unknowns
-/// and `Zero` tangents are fixed.
-struct Frames<'a> {
-    con: &'a [Option<([f64; 2], f64)>],
-    /// Index of the extra variable of each `Split` node (else `usize::MAX`).
-    extra: Vec<usize>,
-    /// Variables: 2 per node, then the extra ones.
-    n: usize,
-    fixed: Vec<Option<f64>>,
-}
-
-impl Frames<'_> {
-    fn new<'a>(
-        dir: &[Option<[f64; 2]>],
-        con: &'a [Option<([f64; 2], f64)>],
-        tangential: &[Tangential],
-    ) -> Frames<'a> {
-        let np = dir.len();
-        let mut extra = vec![usize::MAX; np];
-        let mut n = 2 * np;
-        let mut fixed = vec![None; 2 * np];
-        for (p, d) in dir.iter().enumerate() {
-            if let Some(ud) = d {
-                fixed[2 * p] = Some(ud[0]);
-                fixed[2 * p + 1] = Some(ud[1]);
-            } else if con[p].is_some() {
-                match tangential[p] {
-                    Tangential::Zero => fixed[2 * p + 1] = Some(0.0),
-                    Tangential::Split => {
-                        extra[p] = n;
-                        n += 1;
-                        fixed.push(None);
-                    }
-                    Tangential::Free => {}
-                }
-            }
-        }
-        Frames {
-            con,
-            extra,
-            n,
-            fixed,
-        }
-    }
-
-    /// The column entries of Tᵀ for Cartesian unknown i: (variable, coefficient).
-    fn of(&self, i: usize) -> [(usize, f64); 3] {
-        let p = i / 2;
-        match self.con[p] {
-            Some((n, _)) if self.fixed[2 * p].is_none() => {
-                let t = [-n[1], n[0]];
-                let c = i % 2;
-                if self.extra[p] == usize::MAX {
-                    [(2 * p, n[c]), (2 * p + 1, t[c]), (usize::MAX, 0.0)]
-                } else {
-                    [(2 * p, n[c]), (2 * p + 1, -t[c]), (self.extra[p], t[c])]
-                }
-            }
-            _ => [(i, 1.0), (usize::MAX, 0.0), (usize::MAX, 0.0)],
-        }
-    }
-
-    fn v0(&self, np: usize) -> Vec<f64> {
-        let mut v0 = vec![0.0; 2 * np];
-        for p in 0..np {
-            if let Some((n, g)) = self.con[p]
-                && self.fixed[2 * p].is_none()
-            {
-                v0[2 * p] = n[0] * g;
-                v0[2 * p + 1] = n[1] * g;
-            }
-        }
-        v0
-    }
-
-    /// minimise ½ vᵀKv − fᵀv + Σ_p c_p (a_p + b_p) over v = v₀ + T y with the fixed variables
-    /// eliminated: the reduced matrix (TᵀKT, identity rows at fixed variables, `delta` added
-    /// on the diagonal of the split variables, whose sum a + b is otherwise only held by the
-    /// bounds), its right-hand side, and the variables bounded by y ≤ 0. `c` is per node
-    /// (empty: no split nodes).
-    fn reduce(&self, k: &Lower, f: &[f64], c: &[f64], delta: f64) -> (Lower, Vec<f64>, Vec<usize>) {
-        let n = self.n;
-        let np = k.n / 2;
-        let v0 = self.v0(np);
-        let kv0 = k.apply(&v0);
-        let fixed = &self.fixed;
-        let mut b = vec![0.0; n];
-        for i in 0..k.n {
-            for &(a, ca) in &self.of(i) {
-                if a != usize::MAX && fixed[a].is_none() {
-                    b[a] += ca * (f[i] - kv0[i]);
-                }
-            }
-        }
-        let mut entries = Vec::with_capacity(k.entries.len() * 2);
-        // Adds `val` to the symmetric pair M_ac = M_ca of TᵀKT (once to M_aa when a = c);
-        // couplings to fixed variables move to the right-hand side.
-        let mut add = |a: usize, c: usize, val: f64, b: &mut [f64]| match (fixed[a], fixed[c]) {
-            (None, None) => entries.push((a.max(c), a.min(c), val)),
-            (None, Some(x)) if a != c => b[a] -= val * x,
-            (Some(x), None) if a != c => b[c] -= val * x,
-            _ => {}
-        };
-        for &(i, j, v) in &k.entries {
-            let (ti, tj) = (self.of(i), self.of(j));
-            for (ia, &(a, ca)) in ti.iter().enumerate() {
-                if a == usize::MAX {
-                    continue;
-                }
-                for (ic, &(c, cc)) in tj.iter().enumerate() {
-                    if c == usize::MAX {
-                        continue;
-                    }
-                    let val = v * ca * cc;
-                    if i != j {
-                        // v (y·T_i)(y·T_j) appears twice in yᵀ(TᵀKT)y.
-                        add(a, c, if a == c { 2.0 * val } else { val }, &mut b);
-                    } else if ic <= ia {
-                        add(a, c, val, &mut b);
-                    }
-                }
-            }
-        }
-        for (a, x) in fixed.iter().enumerate() {
-            if let Some(x) = x {
-                entries.push((a, a, 1.0));
-                b[a] = *x;
-            }
-        }
-        let mut bounded = Vec::new();
-        for p in 0..np {
-            if self.con[p].is_some() && fixed[2 * p].is_none() {
-                bounded.push(2 * p);
-                if self.extra[p] != usize::MAX {
-                    // Friction c_p (a + b) = −c_p (y₁ + y_b): a linear cost, and the split's
-                    // regularisation.
-                    for q in [2 * p + 1, self.extra[p]] {
-                        bounded.push(q);
-                        b[q] += c[p];
-                        entries.push((q, q, delta));
-                    }
-                }
-            }
-        }
-        (Lower { n, entries }, b, bounded)
-    }
-
-    /// v = v₀ + T y.
-    fn expand(&self, y: &[f64]) -> Vec<[f64; 2]> {
-        (0..self.extra.len())
-            .map(|p| match self.con[p] {
-                Some((n, g)) if self.fixed[2 * p].is_none() => {
-                    let t = [-n[1], n[0]];
-                    let w = if self.extra[p] == usize::MAX {
-                        y[2 * p + 1]
-                    } else {
-                        y[self.extra[p]] - y[2 * p + 1]
-                    };
-                    [
-                        n[0] * (g + y[2 * p]) + t[0] * w,
-                        n[1] * (g + y[2 * p]) + t[1] * w,
-                    ]
-                }
-                _ => [y[2 * p], y[2 * p + 1]],
-            })
-            .collect()
-    }
-}
-
-/// ‖v − u‖ in the seminorm of the lower-triangle matrix `k`.
-fn distance(k: &Lower, v: &[[f64; 2]], u: &[[f64; 2]]) -> f64 {
-    let diff: Vec<f64> = v
-        .iter()
-        .zip(u)
-        .flat_map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
-        .collect();
-    let kd = k.apply(&diff);
-    diff.iter()
-        .zip(&kd)
-        .map(|(a, b)| a * b)
-        .sum::<f64>()
-        .max(0.0)
-        .sqrt()
-}
-
-/// Projects `u` onto K_u in the energy norm.
-pub fn project(
-    mesh: &Mesh,
-    topo: &Topology,
-    scene: &Scene,
-    edges: &[BoundaryEdge],
-    u: &[[f64; 2]],
-    length_scale: f64,
-) -> Result<Projection, String> {
-    let np = mesh.points.len();
-    let el = Elastic::new(&scene.material);
-    let (dir, con) = boundary_nodes(mesh, topo, scene, edges);
-    let violations = nodal_violations(mesh, topo, scene, edges, u);
-    let lambda = if el.lambda.is_finite() {
-        el.lambda
-    } else {
-        0.0
-    };
-    let (energy, lumped) = stiffness(mesh, 2.0 * el.mu, lambda);
-    let mut system = energy.clone();
-    if !dir.iter().any(Option::is_some) {
-        let w = el.mu / (length_scale * length_scale);
-        for (p, m) in lumped.iter().enumerate() {
-            system.push((2 * p, 2 * p, w * m));
-            system.push((2 * p + 1, 2 * p + 1, w * m));
-        }
-    }
-    let kfull = Lower {
-        n: 2 * np,
-        entries: system,
-    };
-    let flat: Vec<f64> = u.iter().flatten().copied().collect();
-    let f = kfull.apply(&flat);
-    let tangential = vec![Tangential::Free; np];
-    let frames = Frames::new(&dir, &con, &tangential);
-    let (k, b, bounded) = frames.reduce(&kfull, &f, &[], 0.0);
-    // The nodes that penetrate go onto the obstacle: start the active set there.
-    let guess: Vec<usize> = bounded
-        .iter()
-        .copied()
-        .filter(|&i| {
-            let p = i / 2;
-            con[p].is_some_and(|(n, g)| n[0] * u[p][0] + n[1] * u[p][1] >= g)
-        })
-        .collect();
-    let (y, info) = solve_bound_qp_from(&k, &b, &bounded, super::stress::MAX_ITERATIONS, &guess)?;
-    let v = frames.expand(&y);
-    let e = Lower {
-        n: 2 * np,
-        entries: energy,
-    };
-    Ok(Projection {
-        distance: distance(&e, &v, u),
-        displacement: v,
-        info,
-        violations,
-    })
-}
-
-/// sym(e_c ⊗ g) as [xx, xy, yy].
-#[inline]
-fn strain(c: usize, g: [f64; 2]) -> [f64; 3] {
-    if c == 0 {
-        [g[0], 0.5 * g[1], 0.0]
-    } else {
-        [0.0, 0.5 * g[0], g[1]]
-    }
-}
-
-/// What the displacement reconstruction needs.
-pub struct ReconstructInput<'a> {
-    pub mesh: &'a Mesh,
-    pub topo: &'a Topology,
-    pub scene: &'a Scene,
-    pub edges: &'a [BoundaryEdge],
-    pub sigma: StressField<'a>,
-    pub norm: Norm,
+/// What the reconstruction's parts read (built from the [`Context`]).
+struct ReconstructInput<'a> {
+    mesh: &'a Mesh,
+    topo: &'a Topology,
+    scene: &'a Scene,
+    edges: &'a [BoundaryEdge],
+    sigma: StressField<'a>,
+    norm: Norm,
 }
 
 /// A reconstructed displacement and what it took.
@@ -495,7 +61,15 @@ pub const MAX_FRICTION_ITERATIONS: usize = 50;
 /// the linear Σ_p c_p (a_p + b_p) of a bound-constrained QP (at its minimiser one of a_p, b_p
 /// vanishes). Where v_t would change sign inside an edge the talk's remedy holds the node with
 /// the smaller |v_t| at v_t = 0 and the QP is solved again.
-pub fn reconstruct(inp: &ReconstructInput) -> Result<Reconstruction, String> {
+pub fn reconstruct(ctx: &Context, sigma: StressField) -> Result<Reconstruction, String> {
+    let inp = &ReconstructInput {
+        mesh: ctx.mesh,
+        topo: ctx.topo,
+        scene: ctx.scene,
+        edges: ctx.edges,
+        sigma,
+        norm: ctx.norm,
+    };
     let mesh = inp.mesh;
     let np = mesh.points.len();
     let el = Elastic::new(&inp.scene.material);
@@ -692,34 +266,6 @@ fn stress_at(
     }
 }
 
-/// One [`CellValues`] per (family, shape) met, made on first use by `make`.
-struct CellTables<F: Fn(Family, Shape) -> &'static Table> {
-    make: F,
-    values: Vec<(Family, Shape, CellValues)>,
-}
-
-impl<F: Fn(Family, Shape) -> &'static Table> CellTables<F> {
-    fn new(make: F) -> Self {
-        CellTables {
-            make,
-            values: Vec::new(),
-        }
-    }
-
-    fn get(&mut self, mesh: &Mesh, t: usize) -> &mut CellValues {
-        let (f, sh) = (mesh.family[t], mesh.shape[t]);
-        let i = match self.values.iter().position(|c| c.0 == f && c.1 == sh) {
-            Some(i) => i,
-            None => {
-                self.values
-                    .push((f, sh, CellValues::new((self.make)(f, sh))));
-                self.values.len() - 1
-            }
-        };
-        &mut self.values[i].2
-    }
-}
-
 /// f_j = 2∫B(Aσ_h, ε(φ_j)) with 2B(x, y) = a x:y + b tr x tr y; quadrature of the interior
 /// terms ([`interior_table`]): exact on affine cells.
 fn volume_load(mesh: &Mesh, sigma: StressField, el: &Elastic, a: f64, b: f64) -> Vec<f64> {
@@ -828,6 +374,7 @@ mod tests {
     use super::*;
     use crate::estimate;
     use crate::problem::Stress;
+    use crate::reconstruct::projection::nodal_violations;
 
     struct Case {
         data: crate::mesh::Dataset,
@@ -863,18 +410,16 @@ mod tests {
         }
     }
 
+    impl Case {
+        fn context(&self, norm: Norm) -> Context<'_> {
+            Context::new(&self.data.mesh, &self.topo, &self.scene, &self.edges, norm)
+        }
+    }
+
     fn functional(c: &Case, u: &[[f64; 2]], norm: Norm) -> f64 {
-        estimate::run(&estimate::Input {
-            mesh: &c.data.mesh,
-            scene: &c.scene,
-            u,
-            sigma: StressField::Nodal(&c.sigma),
-            edges: &c.edges,
-            norm,
-            symmetric_stress: true,
-        })
-        .functional
-        .total
+        estimate::run(&c.context(norm), u, StressField::Nodal(&c.sigma), true)
+            .functional
+            .total
     }
 
     /// The reconstruction minimises F(·, σ_h) on K_u: the file's displacement (a scikit-fem
@@ -890,6 +435,7 @@ mod tests {
             ("manufactured_frictionless_p2_n08", Norm::Energy),
         ] {
             let c = load(case);
+            let ctx = c.context(norm);
             let inp = ReconstructInput {
                 mesh: &c.data.mesh,
                 topo: &c.topo,
@@ -898,12 +444,9 @@ mod tests {
                 sigma: StressField::Nodal(&c.sigma),
                 norm,
             };
-            let r = reconstruct(&inp).unwrap();
+            let r = reconstruct(&ctx, inp.sigma).unwrap();
             assert!(r.info.converged && r.info.kkt_residual < 1e-12, "{case}");
-            assert_eq!(
-                nodal_violations(&c.data.mesh, &c.topo, &c.scene, &c.edges, &r.displacement),
-                0
-            );
+            assert_eq!(nodal_violations(&ctx, &r.displacement), 0);
             let el = Elastic::new(&c.scene.material);
             let (a, b) = match norm {
                 Norm::Energy => (2.0 * el.mu, el.lambda),

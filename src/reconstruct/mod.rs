@@ -3,8 +3,11 @@
 //! Stress: σ_h = argmin over τ ∈ RT_k(T_h)² ∩ K_σ of F(u_h, τ), a convex quadratic program
 //! with bound constraints on the normal traces at the contact points ([`solve`]).
 
-pub mod condition;
 pub mod displacement;
-pub mod solve;
+pub mod nodal;
+pub mod projection;
 pub mod stress;
 pub mod submesh;
+
+/// The QP solver, a leaf of its own ([`crate::solve`]).
+pub use crate::solve;

@@ -20,27 +20,27 @@
 //! cone |τ_t| ≤ 𝔉|τ_n| at each contact DOF point becomes two bounds after the change of
 //! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
 
-use super::solve::{Lower, SolveInfo, solve_bound_qp_from};
 use super::submesh::SubMesh;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
 use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
 use crate::material::Elastic;
 use crate::mesh::Mesh;
-use crate::problem::{BoundaryEdge, Condition};
+use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::{BoundaryKind, Norm, Scene};
+use crate::solve::{Lower, SolveInfo, solve_bound_qp_from};
 use crate::tolerance::{EDGE_DEGREE, GAP_RELATIVE, MAX_ACTIVE_SET_ITERATIONS, MIN_CONE_FRICTION};
 
-/// What the reconstruction needs.
-pub struct Input<'a> {
-    pub mesh: &'a Mesh,
-    pub scene: &'a Scene,
-    pub u: &'a [[f64; 2]],
-    pub edges: &'a [BoundaryEdge],
-    pub norm: Norm,
-    pub length_scale: f64,
-    pub order: RtOrder,
+/// What the reconstruction reads (built from the [`Context`]).
+struct Input<'a> {
+    mesh: &'a Mesh,
+    scene: &'a Scene,
+    u: &'a [[f64; 2]],
+    edges: &'a [BoundaryEdge],
+    norm: Norm,
+    length_scale: f64,
+    order: RtOrder,
 }
 
 /// Cap on active-set changes.
@@ -76,7 +76,20 @@ pub struct Reconstruction {
 }
 
 /// Reconstructs σ_h; errors name what is not supported.
-pub fn reconstruct(inp: &Input) -> Result<Reconstruction, String> {
+pub fn reconstruct(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    order: RtOrder,
+) -> Result<Reconstruction, String> {
+    let inp = &Input {
+        mesh: ctx.mesh,
+        scene: ctx.scene,
+        u,
+        edges: ctx.edges,
+        norm: ctx.norm,
+        length_scale: ctx.length_scale,
+        order,
+    };
     let mesh = inp.mesh;
     let order = inp.order;
     let nloc = order.dofs();

@@ -16,8 +16,6 @@
 //! lower bound of κ(S) that is typically within a small factor of it. A result has lost more
 //! than half of its 16 digits when κ(S) > 1e8 ([`WARN_ABOVE`]).
 
-use super::solve::SolveInfo;
-
 /// Most steps of power and of inverse iteration; each stops earlier once its eigenvalue
 /// estimate changes by less than [`SETTLED`] relative in one step.
 pub const ITERATIONS: usize = 20;
@@ -28,12 +26,6 @@ pub const SETTLED: f64 = 1e-2;
 
 /// κ(S) above which the report warns: half of double precision's digits may be lost.
 pub const WARN_ABOVE: f64 = 1e8;
-
-/// Coulomb coefficients below this are reconstructed with τ_t = 0 (the cone's axis, which is
-/// admissible) instead of the cone variables w₁,₂ = ±τ_t + 𝔉τ_n: those map to τ_n with the
-/// factor 1/(2𝔉), which multiplies the condition number by about 𝔉⁻², and at 𝔉 = 1e-8 breaks
-/// the factorisation. The price is a friction term larger by at most 𝔉 ∫ |τ_n| |u_t|.
-pub const MIN_CONE_FRICTION: f64 = 1e-6;
 
 /// Estimates κ(D^{-1/2} K D^{-1/2}) from `apply` (y = K x), `solve` (x = K⁻¹ b with the
 /// existing factor) and the diagonal of K. Returns `f64::INFINITY` when a solve fails or the
@@ -99,18 +91,6 @@ pub fn estimate(
     (lambda_max * inverse_max).max(1.0)
 }
 
-/// The warning for the report when `info.condition_estimate` exceeds [`WARN_ABOVE`].
-pub fn warning(info: &SolveInfo, what: &str) -> Option<String> {
-    let kappa = info.condition_estimate;
-    (kappa > WARN_ABOVE).then(|| {
-        format!(
-            "warning: {what}: condition estimate {kappa:.1e} > 1e8; the reconstructed field (and \
-             F) may have lost more than half of their 16 digits (about {:.0} lost)",
-            kappa.log10().min(16.0)
-        )
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -160,21 +140,6 @@ mod tests {
         assert!(
             kappa <= want * (1.0 + 1e-9) && kappa > 0.7 * want,
             "{kappa} vs {want}"
-        );
-    }
-
-    #[test]
-    fn warning_only_above_the_threshold() {
-        let mut info = SolveInfo {
-            condition_estimate: 3e7,
-            ..SolveInfo::default()
-        };
-        assert_eq!(warning(&info, "stress reconstruction"), None);
-        info.condition_estimate = 2.5e11;
-        assert_eq!(
-            warning(&info, "stress reconstruction").unwrap(),
-            "warning: stress reconstruction: condition estimate 2.5e11 > 1e8; the reconstructed \
-             field (and F) may have lost more than half of their 16 digits (about 11 lost)"
         );
     }
 }

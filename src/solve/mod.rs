@@ -11,6 +11,8 @@
 //! pattern*, so K is compressed once and the symbolic Cholesky factorisation (faer) is computed
 //! once and reused.
 
+pub mod condition;
+
 use faer::Side;
 use faer::prelude::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
@@ -261,7 +263,7 @@ pub fn solve_bound_qp_from(
 /// numeric factor for the inverse iteration.
 fn last_system_condition(llt: &Llt<usize, f64>, factor: &Factor, values: &[f64]) -> f64 {
     let apply = |x: &[f64]| factor.apply(values, x);
-    super::condition::estimate(
+    condition::estimate(
         apply,
         |b| Some(solve_with(llt, b)),
         &factor.diagonal(values),
