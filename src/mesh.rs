@@ -160,6 +160,9 @@ fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
 pub struct Merge {
     /// Every cell had its own node copies (else: copies at the interfaces of pieces).
     pub exploded: bool,
+    /// When points were shared inside groups of cells only (MFEM's low-order output): the
+    /// number of such groups (connected components) before merging.
+    pub groups: Option<usize>,
     pub points_in_file: usize,
     pub points_merged: usize,
     /// Per point array: the largest difference between copies of one node (any component),
@@ -577,6 +580,43 @@ fn positive_jacobian(mesh: &Mesh, t: usize) -> bool {
     })
 }
 
+/// The connected component of every point (cells sharing a node are connected); `NONE` for
+/// points of no cell.
+fn cell_components(mesh: &Mesh) -> Vec<u32> {
+    let np = mesh.points.len();
+    let mut parent: Vec<u32> = (0..np as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    let mut used = vec![false; np];
+    for t in 0..mesh.len() {
+        let n = mesh.nodes(t);
+        used[n[0] as usize] = true;
+        for &v in &n[1..] {
+            used[v as usize] = true;
+            let a = root(&mut parent, n[0]);
+            let b = root(&mut parent, v);
+            if a != b {
+                let (lo, hi) = (a.min(b), a.max(b));
+                parent[hi as usize] = lo;
+            }
+        }
+    }
+    (0..np as u32)
+        .map(|i| {
+            if used[i as usize] {
+                root(&mut parent, i)
+            } else {
+                NONE
+            }
+        })
+        .collect()
+}
+
 /// Merges node copies and averages point data over copies, recording the largest jump per
 /// array. Copies arise in exploded meshes (no node shared by two triangles), where any two
 /// coincident nodes are merged, and in files of several pieces, where coincident nodes of
@@ -596,12 +636,29 @@ fn merge_copies(
             users[v as usize] = users[v as usize].saturating_add(1);
         }
     }
-    let exploded = users.iter().all(|&u| u <= 1);
+    let mut exploded = users.iter().all(|&u| u <= 1);
+    // Points shared only inside groups of cells (MFEM's low-order output refines every element
+    // and shares points only inside it): the connected components of the cells are the groups.
+    // Merging across them needs at least three components and as many coincident pairs as
+    // components, so that two bodies touching at a point (or flush along one interface with
+    // duplicated nodes: K = 2) stay apart.
+    let mut fragments = None;
     if !exploded && piece_points.len() < 2 {
-        return None;
+        let comp = cell_components(mesh);
+        let k = comp
+            .iter()
+            .filter(|&&c| c != NONE)
+            .collect::<std::collections::HashSet<_>>()
+            .len();
+        if k < 3 {
+            return None;
+        }
+        fragments = Some((comp, k));
     }
     // Nodes of one group are never merged with each other.
-    let group: Vec<u32> = if exploded {
+    let group: Vec<u32> = if let Some((comp, _)) = &fragments {
+        comp.clone()
+    } else if exploded {
         (0..np as u32).collect()
     } else {
         let mut g = vec![0u32; np];
@@ -705,6 +762,12 @@ fn merge_copies(
     if count as usize == np {
         return None;
     }
+    if let Some((_, k)) = &fragments {
+        if np - (count as usize) < *k {
+            return None;
+        }
+        exploded = true;
+    }
 
     let mut points = vec![[0.0; 2]; count as usize];
     for i in 0..np {
@@ -771,6 +834,7 @@ fn merge_copies(
     mesh.points = points;
     Some(Merge {
         exploded,
+        groups: fragments.map(|f| f.1),
         points_in_file: np,
         points_merged: count as usize,
         jumps,

@@ -429,6 +429,27 @@ fn stress_layout(
             ),
         ));
     };
+    if c == 9 {
+        // DOLFINx writes a 2×2 tensor as 9 components xx, xy, yx, yy, 0, 0, 0, 0, 0: the last
+        // five are exactly zero and components 2, 3 (xz, yx of a row-major 3×3) carry the
+        // in-plane yx, yy. A 3×3 of a 2D stress has xz = yx = 0 there, so the test is safe.
+        let zero_tail = a
+            .values
+            .chunks_exact(9)
+            .all(|v| v[4..].iter().all(|&x| x == 0.0));
+        let in_plane = a.values.chunks_exact(9).any(|v| v[2] != 0.0 || v[3] != 0.0);
+        if zero_tail && in_plane {
+            let layout = StressLayout::parse("xx,xy,yx,yy,xz,yz,zx,zy,zz").expect("a valid layout");
+            return Ok((
+                layout,
+                Some(format!(
+                    "stress \"{}\": 9 components with the last five zero: read as DOLFINx's \
+                     padded 2×2 tensor xx, xy, yx, yy, 0, 0, 0, 0, 0 (not a row-major 3×3)",
+                    a.name.escape_debug()
+                )),
+            ));
+        }
+    }
     if c == 4 {
         let max = a.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let tol = EQUAL_COMPONENTS * max;
