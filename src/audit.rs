@@ -466,6 +466,9 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             est.admissibility.penetration.max,
             est.admissibility.dirichlet.max,
         ));
+        // The contact zone too: the projection lifts the zone by up to ~1e-5 and would
+        // reopen it (issue 12); the traction is the same.
+        est.contact = file.contact;
         est.admissibility.penetration = file.admissibility.penetration;
         est.admissibility.dirichlet = file.admissibility.dirichlet;
     }

@@ -35,6 +35,22 @@ pub const SYMMETRY_RELATIVE: f64 = 1e-12;
 /// contact state, relative to the largest |σ_n| on Γ_C: round-off must not make zones.
 pub const STATE_RELATIVE: f64 = 1e-10;
 
+/// A piece of Γ_C is in contact where the normal traction of the stress used is compressive
+/// beyond this fraction of the largest |σ_n| on Γ_C (docs/design.md §5.8). The traction, not
+/// the gap, decides: a penalty solution penetrates and an energy projection lifts it by up to
+/// ~1e-5, which reopens gaps of that size, and P1 fields open gaps of h²/8R between active
+/// nodes of a curved boundary. 1e-2 cuts the oscillating tails of a reconstructed σ_n beyond
+/// the zone's ends (on the coarser quadrilateral Hertz meshes: 2a + 3.1 % at 1e-3, + 2.9 % at
+/// 1e-2), while a Hertz pressure p₀(1 − x²/a²)^½ falls below 1e-2 p₀ only within 5e-5 a of
+/// the ends; the triangle fixtures give 2a within 0.2 % for every threshold from 1e-4 to 1e-2.
+pub const CONTACT_TRACTION_RELATIVE: f64 = 1e-2;
+
+/// Stick also needs |u_t| ≤ this times max |u_h| on Γ_C: a stress inside the cone with a
+/// sliding displacement is slip. Regularised-friction solvers (NGSolve, ε = 1e-8) leave
+/// |u_t| of 1e-5 max |u_h| in their stick zone; at 1e-4 the NGSolve and scikit-fem (exact
+/// active set) P1 Coulomb Hertz files give the same stick length, 0.0687.
+pub const STICK_SLIP_RELATIVE: f64 = 1e-4;
+
 /// Relative size (of max |u_h| on Γ_C) below which an open gap counts as closed when
 /// classifying the contact state: looser than [`STATE_RELATIVE`] because P2 displacements
 /// constrained at the nodes only (active-set solvers, projections) leave gaps of that order

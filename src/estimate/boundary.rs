@@ -27,7 +27,9 @@ use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::line_rule_cached;
 use crate::read::scene::{BoundaryKind, Contact as ContactSpec, Scene};
-use crate::tolerance::{EDGE_DEGREE, EDGE_SAMPLES, GAP_RELATIVE, STATE_RELATIVE};
+use crate::tolerance::{
+    CONTACT_TRACTION_RELATIVE, EDGE_DEGREE, EDGE_SAMPLES, STATE_RELATIVE, STICK_SLIP_RELATIVE,
+};
 
 /// What the boundary pass needs (built from the [`Context`]).
 struct Input<'a> {
@@ -308,6 +310,56 @@ struct Piece {
     length: f64,
 }
 
+/// Merges intervals shorter than the local mesh size (the longest edge they touch) into their
+/// neighbours (docs/design.md §5.8): into both when those agree, else into the longer one.
+/// Such pieces are below the resolution of the discrete fields: sign flickers of σ_n or u_t
+/// between the nodes of one edge, not zones.
+fn merge_short(mut list: Vec<(ContactInterval, f64)>) -> Vec<(ContactInterval, f64)> {
+    loop {
+        let n = list.len();
+        if n < 2 {
+            return list;
+        }
+        let Some(i) = (0..n)
+            .filter(|&i| list[i].0.length < list[i].1)
+            .min_by(|&a, &b| list[a].0.length.total_cmp(&list[b].0.length))
+        else {
+            return list;
+        };
+        let into = match (i.checked_sub(1), (i + 1 < n).then_some(i + 1)) {
+            (Some(l), Some(r)) if list[l].0.state == list[r].0.state => {
+                let (short, right) = (list[i].clone(), list[r].clone());
+                let left = &mut list[l];
+                left.0.length += short.0.length + right.0.length;
+                left.0.end = right.0.end;
+                left.1 = left.1.max(short.1).max(right.1);
+                list.drain(i..=r);
+                continue;
+            }
+            (Some(l), Some(r)) => {
+                if list[l].0.length >= list[r].0.length {
+                    l
+                } else {
+                    r
+                }
+            }
+            (Some(l), None) => l,
+            (None, Some(r)) => r,
+            (None, None) => return list,
+        };
+        let short = list.remove(i);
+        let j = if into > i { into - 1 } else { into };
+        let t = &mut list[j];
+        t.0.length += short.0.length;
+        t.1 = t.1.max(short.1);
+        if into > i {
+            t.0.start = short.0.start;
+        } else {
+            t.0.end = short.0.end;
+        }
+    }
+}
+
 /// Evaluates the boundary terms, the admissibility checks and the contact zone of `u` and
 /// `sigma` in the problem `ctx`.
 pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
@@ -347,7 +399,8 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
         }
     }
     let tol = STATE_RELATIVE * sn_scale;
-    let tol_gap = GAP_RELATIVE * u_scale;
+    let tol_contact = CONTACT_TRACTION_RELATIVE * sn_scale;
+    let tol_slip = STICK_SLIP_RELATIVE * u_scale;
 
     // Pieces of each contact boundary, per edge, for the intervals.
     let mut pieces: Vec<(usize, usize, Vec<Piece>)> = Vec::new(); // (boundary, edge index, pieces)
@@ -364,6 +417,8 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                 let q = |s: f64| contact_at(&f.at(s), c);
                 let mut cuts = vec![0.0, 1.0];
                 cuts.extend(zeros(|s| q(s).sn, f.straight));
+                // The contact zone ends where σ_n crosses the threshold.
+                cuts.extend(zeros(|s| q(s).sn + tol_contact, f.straight));
                 cuts.extend(zeros(|s| q(s).ut, f.straight));
                 cuts.extend(zeros(
                     |s| {
@@ -410,10 +465,16 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                         cone.l2sq += dw * (p.st.abs() - fr * p.sn.abs()).max(0.0).powi(2);
                     }
                     let mid = q(a + 0.5 * h);
-                    // In contact: the gap is closed and the traction compressive.
-                    let state = if mid.sn >= -tol || mid.un - mid.g < -tol_gap {
+                    // In contact where the traction is compressive beyond the threshold
+                    // (docs/design.md §5.8), whatever the gap: P1 fields open gaps of h²/8R
+                    // between active nodes on curved boundaries, penalty solutions close them
+                    // by penetrating. Without friction that is "contact"; with friction stick
+                    // needs the stress inside the cone and no slip.
+                    let state = if mid.sn >= -tol_contact {
                         ContactState::Separated
-                    } else if fr > 0.0 && fr * mid.sn.abs() - mid.st.abs() > tol {
+                    } else if fr <= 0.0 {
+                        ContactState::Contact
+                    } else if fr * mid.sn.abs() - mid.st.abs() > tol && mid.ut.abs() <= tol_slip {
                         ContactState::Stick
                     } else {
                         ContactState::Slip
@@ -455,6 +516,7 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                     let mut best = (ContactState::Separated, -1.0);
                     for st in [
                         ContactState::Separated,
+                        ContactState::Contact,
                         ContactState::Stick,
                         ContactState::Slip,
                     ] {
@@ -472,6 +534,7 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                 for p in &edge_pieces {
                     match p.state {
                         ContactState::Separated => {}
+                        ContactState::Contact => out.contact.active_length += p.length,
                         ContactState::Stick => {
                             out.contact.active_length += p.length;
                             out.contact.stick_length += p.length;
@@ -529,6 +592,19 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
     out.admissibility.dirichlet = dir.done();
     out.admissibility.neumann = neu.done();
     out.contact.intervals = intervals(inp, &pieces);
+    // The zone's lengths from the merged intervals.
+    let length_of = |st: ContactState| -> f64 {
+        out.contact
+            .intervals
+            .iter()
+            .filter(|c| c.state == st)
+            .map(|c| c.length)
+            .sum()
+    };
+    out.contact.stick_length = length_of(ContactState::Stick);
+    out.contact.slip_length = length_of(ContactState::Slip);
+    out.contact.active_length =
+        out.contact.stick_length + out.contact.slip_length + length_of(ContactState::Contact);
     out
 }
 
@@ -604,32 +680,40 @@ fn intervals(inp: &Input, pieces: &[(usize, usize, Vec<Piece>)]) -> Vec<ContactI
         }
         let name = inp.scene.boundaries[b].name.clone();
         for chain in order {
-            let mut current: Option<ContactInterval> = None;
+            let mut current: Option<(ContactInterval, f64)> = None;
+            // (interval, the largest edge length it touches).
+            let mut list: Vec<(ContactInterval, f64)> = Vec::new();
             for &i in &chain {
+                let edge_length: f64 = mine[i].2.iter().map(|p| p.length).sum();
                 for p in &mine[i].2 {
                     match current.as_mut() {
-                        Some(c) if c.state == p.state => {
+                        Some((c, h)) if c.state == p.state => {
                             c.end = p.end;
                             c.length += p.length;
+                            *h = h.max(edge_length);
                         }
                         _ => {
                             if let Some(c) = current.take() {
-                                out.push(c);
+                                list.push(c);
                             }
-                            current = Some(ContactInterval {
-                                boundary: name.clone(),
-                                state: p.state,
-                                start: p.start,
-                                end: p.end,
-                                length: p.length,
-                            });
+                            current = Some((
+                                ContactInterval {
+                                    boundary: name.clone(),
+                                    state: p.state,
+                                    start: p.start,
+                                    end: p.end,
+                                    length: p.length,
+                                },
+                                edge_length,
+                            ));
                         }
                     }
                 }
             }
             if let Some(c) = current {
-                out.push(c);
+                list.push(c);
             }
+            out.extend(merge_short(list).into_iter().map(|c| c.0));
         }
     }
     out

@@ -73,6 +73,8 @@ pub struct Admissibility {
 #[serde(rename_all = "lowercase")]
 pub enum ContactState {
     Separated,
+    /// In contact without friction.
+    Contact,
     Stick,
     Slip,
 }

@@ -297,6 +297,7 @@ pub fn state_name(s: crate::estimate::ContactState) -> &'static str {
     use crate::estimate::ContactState::*;
     match s {
         Separated => "separated",
+        Contact => "contact",
         Stick => "stick",
         Slip => "slip",
     }

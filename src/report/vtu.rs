@@ -62,6 +62,7 @@ pub fn state_code(s: Option<ContactState>) -> f64 {
         Some(ContactState::Separated) => 0.0,
         Some(ContactState::Stick) => 1.0,
         Some(ContactState::Slip) => 2.0,
+        Some(ContactState::Contact) => 3.0,
     }
 }
 
