@@ -22,6 +22,7 @@ pub mod reconstruct;
 pub mod report;
 pub mod scene;
 pub mod solve;
+pub mod starter;
 pub mod tolerance;
 pub mod topology;
 pub mod write;

@@ -229,3 +229,63 @@ fn default_mode_contact_zone_on_every_hertz_fixture() {
     }
     assert!(checked >= 13, "{checked} Hertz fixtures checked");
 }
+
+/// From a DOLFINx file to a first estimate (issue 12): `fosls scene` writes the starter,
+/// only the material numbers are edited, `fosls estimate` finds the scene beside the file.
+#[test]
+fn from_a_dolfinx_file_to_a_first_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("hertz.vtu");
+    std::fs::copy(
+        root().join("fixtures/dolfinx_hertz_p2_vtkfile/solution_p0_000000.vtu"),
+        &file,
+    )
+    .unwrap();
+    let bin = env!("CARGO_BIN_EXE_fosls");
+    let out = Command::new(bin).arg("scene").arg(&file).output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let scene = dir.path().join("hertz.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    // The starter never overwrites.
+    let again = Command::new(bin).arg("scene").arg(&file).output().unwrap();
+    assert_eq!(again.status.code(), Some(2));
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
+    // Only the material numbers change.
+    let edited = text
+        .replace("youngs_modulus = 1.0 ", "youngs_modulus = 20600.0 ")
+        .replace("poisson_ratio  = 0.3 ", "poisson_ratio  = 0.28 ");
+    assert_ne!(edited, text);
+    std::fs::write(&scene, edited).unwrap();
+    let out = Command::new(bin)
+        .arg("estimate")
+        .arg(&file)
+        .args(["--json", "-", "--quiet"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    #[derive(Deserialize)]
+    struct Zone {
+        normal_force: f64,
+        active_length: f64,
+    }
+    #[derive(Deserialize)]
+    struct Out {
+        contact: Zone,
+    }
+    let r: Out = serde_json::from_slice(&out.stdout).unwrap();
+    let e = expected("dolfinx_hertz_p2_vtkfile");
+    let p = e["hertz"]["P_solver"].as_f64().unwrap();
+    let two_a = e["hertz"]["two_a"].as_f64().unwrap();
+    assert!(((r.contact.normal_force - p) / p).abs() < 0.01);
+    assert!(((r.contact.active_length - two_a) / two_a).abs() < 0.03);
+}

@@ -38,6 +38,20 @@ pub enum Command {
     /// Evaluate the FOSLS functional of a solution: global estimate, indicators per cell,
     /// admissibility and the contact zone (docs/design.md §3–§8).
     Estimate(EstimateArgs),
+    /// Write a starter scene for a solution file: its fields and layouts, its boundary parts
+    /// (tags or bounding-box sides) with guessed kinds, material placeholders (docs/design.md
+    /// §7). Then edit the lines marked EDIT and run `fosls estimate FILE`.
+    Scene {
+        /// The solution file.
+        file: PathBuf,
+        /// Where to write it (`-` for standard output); default `<file stem>.toml` beside the
+        /// file. An existing file is never overwritten.
+        #[arg(long, value_name = "FILE")]
+        output: Option<PathBuf>,
+        /// Give up after this many seconds (exit status 2, no output file).
+        #[arg(long, value_name = "SECONDS", value_parser = limits::parse_timeout)]
+        timeout: Option<Duration>,
+    },
     /// Rewrite a VTU file as binary zlib-compressed VTU (appended raw, or inline base64).
     Convert {
         /// The VTU file to read.
@@ -121,6 +135,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Inspect { timeout, .. } => (*timeout, "inspect"),
         Command::Estimate(args) => (args.timeout, "estimate"),
         Command::Convert { timeout, .. } => (*timeout, "convert"),
+        Command::Scene { timeout, .. } => (*timeout, "scene"),
     };
     if let Some(limit) = timeout {
         limits::start_watchdog(limit, name);
@@ -130,6 +145,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             file, json, quiet, ..
         } => inspect_file(&file, json.as_deref(), quiet),
         Command::Estimate(args) => estimate::run(&args),
+        Command::Scene { file, output, .. } => scene_file(&file, output.as_deref()),
         Command::Convert {
             input,
             output,
@@ -149,6 +165,39 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `fosls scene`: the starter scene, written beside the file unless asked otherwise, never
+/// over an existing file.
+fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
+    let target = output.map_or_else(|| file.with_extension("toml"), Path::to_path_buf);
+    if target != Path::new("-") {
+        check_output(file, &target)?;
+        if target.exists() {
+            return Err(Error::input(
+                &target,
+                "scene",
+                "exists; fosls scene never overwrites a file (remove it or pass --output)",
+            )
+            .into());
+        }
+    }
+    limits::set_stage("reading the solution");
+    let vtu = read::vtu::read_vtu(file)?;
+    let data = mesh::build(vtu)?;
+    let topo = topology::build(&data)?;
+    let name = file.file_name().map_or_else(
+        || file.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let text = fosls::starter::starter_scene(&data, &topo, &name)?;
+    if target == Path::new("-") {
+        print!("{text}");
+    } else {
+        write::write_atomic(&target, text.as_bytes())?;
+        eprintln!("fosls: wrote {}", target.display());
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Refuses output paths that would overwrite the input.
