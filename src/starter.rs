@@ -151,8 +151,8 @@ pub fn starter_scene(data: &Dataset, topo: &Topology, file_name: &str) -> Result
          # [estimate]\n# norm = \"energy\"                   # energy | robust | seed\n\
          # length_scale = 1.0                 # ℓ of the equilibrium weight (default diam/π)\n"
     );
-    if tag.is_some() && !mesh.lines.is_empty() {
-        let _ = writeln!(o, "[boundaries]\ntag_array = {:?}\n", tag.unwrap().name);
+    if let (Some(tag), false) = (tag, mesh.lines.is_empty()) {
+        let _ = writeln!(o, "[boundaries]\ntag_array = {:?}\n", tag.name);
     }
 
     let u = fields.displacement.as_deref();
