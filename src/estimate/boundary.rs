@@ -592,6 +592,10 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
     out.admissibility.dirichlet = dir.done();
     out.admissibility.neumann = neu.done();
     out.contact.intervals = intervals(inp, &pieces);
+    out.admissibility.u_scale = u
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+    out.admissibility.sigma_scale = sigma.scale(ctx.mesh);
     // The zone's lengths from the merged intervals.
     let length_of = |st: ContactState| -> f64 {
         out.contact

@@ -66,6 +66,50 @@ pub struct Admissibility {
     /// Negative parts of the signed boundary terms, ∫ min(integrand, 0) ds (≤ 0).
     pub complementarity_negative: f64,
     pub friction_negative: f64,
+    /// max |u_h| and max |σ_h|: the scales below which violations are round-off
+    /// ([`crate::tolerance::ADMISSIBLE_RELATIVE`]).
+    pub u_scale: f64,
+    pub sigma_scale: f64,
+}
+
+impl Admissibility {
+    /// The five kinds with their names, definitions and whether each is above round-off.
+    pub fn kinds(&self) -> [(&'static str, &'static str, &Violation, bool); 5] {
+        let tu = crate::tolerance::ADMISSIBLE_RELATIVE * self.u_scale;
+        let ts = crate::tolerance::ADMISSIBLE_RELATIVE * self.sigma_scale;
+        [
+            (
+                "penetration",
+                "(u_n - g)+ on Γ_C",
+                &self.penetration,
+                self.penetration.max > tu,
+            ),
+            (
+                "tension",
+                "σ_n+ on Γ_C",
+                &self.tension,
+                self.tension.max > ts,
+            ),
+            (
+                "cone violation",
+                "(|σ_t| - 𝔉|σ_n|)+ on Γ_C",
+                &self.cone_violation,
+                self.cone_violation.max > ts,
+            ),
+            (
+                "Dirichlet data",
+                "|u - u_D| on Γ_D",
+                &self.dirichlet,
+                self.dirichlet.max > tu,
+            ),
+            (
+                "Neumann data",
+                "|σn - t| on Γ_N",
+                &self.neumann,
+                self.neumann.max > ts,
+            ),
+        ]
+    }
 }
 
 /// State of a piece of the contact boundary (as in the talk's figure).

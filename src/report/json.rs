@@ -41,7 +41,10 @@ pub struct Report {
     pub relative: Option<f64>,
     pub stress: Field,
     pub displacement: Displacement,
+    /// Of the fields used in F.
     pub admissibility: Admissibility,
+    /// Of the file's own fields, when the estimate used others (projection, reconstruction).
+    pub admissibility_file: Option<Admissibility>,
     pub contact: Contact,
     pub bound: Bound,
     pub cells: Cells,
@@ -185,10 +188,38 @@ fn file_cell(mesh: &Mesh, t: usize) -> usize {
     mesh.file_cell.get(t).map_or(t, |&c| c as usize)
 }
 
+/// The JSON admissibility of one pair of fields.
+fn admissibility(a: &crate::estimate::Admissibility, mesh: &Mesh) -> Admissibility {
+    let cell = |v: &Violation| v.cell.map(|t| file_cell(mesh, t));
+    Admissibility {
+        penetration_max: a.penetration.max,
+        tension_max: a.tension.max,
+        cone_violation_max: a.cone_violation.max,
+        dirichlet_max: a.dirichlet.max,
+        neumann_max: a.neumann.max,
+        penetration_l2: a.penetration.l2,
+        tension_l2: a.tension.l2,
+        cone_violation_l2: a.cone_violation.l2,
+        dirichlet_l2: a.dirichlet.l2,
+        neumann_l2: a.neumann.l2,
+        penetration_at: a.penetration.at,
+        tension_at: a.tension.at,
+        cone_violation_at: a.cone_violation.at,
+        dirichlet_at: a.dirichlet.at,
+        neumann_at: a.neumann.at,
+        penetration_cell: cell(&a.penetration),
+        tension_cell: cell(&a.tension),
+        cone_violation_cell: cell(&a.cone_violation),
+        dirichlet_cell: cell(&a.dirichlet),
+        neumann_cell: cell(&a.neumann),
+        complementarity_negative: a.complementarity_negative,
+        friction_negative: a.friction_negative,
+    }
+}
+
 /// Builds the JSON document of a run.
 pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
     let a = &est.admissibility;
-    let cell = |v: &Violation| v.cell.map(|t| file_cell(mesh, t));
     let c = &est.cells;
     let f = &est.functional;
     Report {
@@ -221,30 +252,11 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
             reason: run.displacement.reason.clone(),
             projection_distance: run.projection_distance,
         },
-        admissibility: Admissibility {
-            penetration_max: a.penetration.max,
-            tension_max: a.tension.max,
-            cone_violation_max: a.cone_violation.max,
-            dirichlet_max: a.dirichlet.max,
-            neumann_max: a.neumann.max,
-            penetration_l2: a.penetration.l2,
-            tension_l2: a.tension.l2,
-            cone_violation_l2: a.cone_violation.l2,
-            dirichlet_l2: a.dirichlet.l2,
-            neumann_l2: a.neumann.l2,
-            penetration_at: a.penetration.at,
-            tension_at: a.tension.at,
-            cone_violation_at: a.cone_violation.at,
-            dirichlet_at: a.dirichlet.at,
-            neumann_at: a.neumann.at,
-            penetration_cell: cell(&a.penetration),
-            tension_cell: cell(&a.tension),
-            cone_violation_cell: cell(&a.cone_violation),
-            dirichlet_cell: cell(&a.dirichlet),
-            neumann_cell: cell(&a.neumann),
-            complementarity_negative: a.complementarity_negative,
-            friction_negative: a.friction_negative,
-        },
+        admissibility: admissibility(a, mesh),
+        admissibility_file: run
+            .file_admissibility
+            .as_ref()
+            .map(|f| admissibility(&f.admissibility, mesh)),
         contact: Contact {
             active_length: est.contact.active_length,
             stick_length: est.contact.stick_length,

@@ -76,6 +76,10 @@ pub struct Marking {
 /// What the run read and did, besides the estimate: the inputs of the printers.
 #[derive(Clone, Debug, Default)]
 pub struct Run {
+    /// Admissibility of the file's own fields when the estimate used others (a projection
+    /// or a reconstruction): the file's displacement and stress, or the ones used where the
+    /// file has none (`displacement_from_file`, `stress_from_file` say which).
+    pub file_admissibility: Option<FileAdmissibility>,
     pub solution: PathBuf,
     pub scene: PathBuf,
     /// Tool version (`env!("CARGO_PKG_VERSION")`).
@@ -92,6 +96,14 @@ pub struct Run {
     pub marked: Option<Marking>,
     /// ‖ũ_h − u_h‖_E when the file's displacement was projected onto K_u (docs/design.md §5).
     pub projection_distance: Option<f64>,
+}
+
+/// The admissibility of the file's fields (docs/design.md §8.1: the "file" column).
+#[derive(Clone, Debug)]
+pub struct FileAdmissibility {
+    pub admissibility: crate::estimate::Admissibility,
+    pub displacement_from_file: bool,
+    pub stress_from_file: bool,
 }
 
 /// The four term values of cell `t`, in the order of [`TERMS`].
@@ -307,6 +319,7 @@ pub(crate) mod fixture {
 
     pub fn run() -> Run {
         Run {
+            file_admissibility: None,
             solution: "in.vtu".into(),
             scene: "scene.toml".into(),
             version: "0.1.0",

@@ -84,6 +84,43 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         run.solution.display()
     );
 
+    // The headline: what the numbers are about.
+    let u_what = match (run.displacement.source.as_str(), run.projection_distance) {
+        ("file", _) => "the file's displacement u_h".to_string(),
+        (_, Some(d)) => format!(
+            "the file's displacement u_h, projected onto K_u (distance ‖ũ_h − u_h‖_E = {}, \
+             added to the error bound)",
+            num(d, 3)
+        ),
+        _ => format!(
+            "a displacement rebuilt from the file's stress ({})",
+            run.displacement.space
+        ),
+    };
+    let s_what = match run.stress.source.as_str() {
+        "file" => "the file's stress".to_string(),
+        _ => format!("the certificate stress σ_h: {}", run.stress.space),
+    };
+    match (est.eta, est.relative) {
+        (Some(eta), Some(rel)) => {
+            let _ = writeln!(
+                o,
+                "\nResult: η = F^½ = {} (relative error estimate {:.2} %) for {u_what}, measured \
+                 against {s_what}.",
+                n(eta),
+                100.0 * rel
+            );
+        }
+        _ => {
+            let _ = writeln!(
+                o,
+                "\nResult: F = {} < 0: the pair ({u_what}; {s_what}) is inadmissible, η is \
+                 undefined (see Admissibility).",
+                n(est.functional.total)
+            );
+        }
+    }
+
     // 1. Inputs.
     let _ = writeln!(o, "\nInputs");
     let field = |f: &super::FieldInfo, extra: &str| {
@@ -128,9 +165,13 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
     rows.extend([vec![
         "mesh".into(),
         format!(
-            "{} P{} triangles, {} line cells",
+            "{} cells ({}), {} line cells",
             mesh.cells.len(),
-            mesh.degree,
+            mesh.families()
+                .iter()
+                .map(|f| f.name())
+                .collect::<Vec<_>>()
+                .join(", "),
             mesh.lines.len()
         ),
     ]]);
@@ -152,54 +193,87 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
     }
     table(&mut o, 2, &[], &rows);
 
-    // 2. Admissibility.
-    let a = &est.admissibility;
-    let kinds: [(&str, &str, &Violation); 5] = [
-        ("penetration", "(u_n - g)+ on Γ_C", &a.penetration),
-        ("tension", "σ_n+ on Γ_C", &a.tension),
-        (
-            "cone violation",
-            "(|σ_t| - 𝔉|σ_n|)+ on Γ_C",
-            &a.cone_violation,
-        ),
-        ("Dirichlet data", "|u - u_D| on Γ_D", &a.dirichlet),
-        ("Neumann data", "|σn - t| on Γ_N", &a.neumann),
-    ];
-    let found = kinds.iter().filter(|k| k.2.max > 0.0).count();
+    // 2. Admissibility: the fields used and, where the estimate replaced one, the file's.
+    let used = &est.admissibility;
+    let file = run.file_admissibility.as_ref();
+    let a = used;
+    let cell_of = |v: &Violation| match (v.at, v.cell) {
+        (Some(p), Some(t)) => format!("at {}, cell {}", point(p), file_cell(t)),
+        (Some(p), None) => format!("at {}", point(p)),
+        (None, Some(t)) => format!("cell {}", file_cell(t)),
+        (None, None) => String::new(),
+    };
+    let value = |v: &Violation, real: bool| {
+        if v.max <= 0.0 {
+            "none".to_string()
+        } else if real {
+            format!("max {}  L² {}", n(v.max), n(v.l2))
+        } else {
+            format!("round-off ({})", n(v.max))
+        }
+    };
+    let counted = |adm: &crate::estimate::Admissibility| adm.kinds().iter().filter(|k| k.3).count();
+    let found = file.map_or(counted(used), |f| counted(&f.admissibility));
     let _ = writeln!(
         o,
-        "\nAdmissibility: {}",
+        "\nAdmissibility: {} (above round-off: 1e-10 of max |u_h| or max |σ_h|)",
         if found == 0 {
             "no violation found".to_string()
         } else {
             format!(
-                "{found} kind{} of violation",
-                if found == 1 { "" } else { "s" }
+                "{found} kind{} of violation{}",
+                if found == 1 { "" } else { "s" },
+                if file.is_some() {
+                    " in the file's fields"
+                } else {
+                    ""
+                }
             )
         }
     );
-    let rows: Vec<Vec<String>> = kinds
-        .iter()
-        .map(|(name, what, v)| {
-            if v.max > 0.0 {
-                let at = match (v.at, v.cell) {
-                    (Some(p), Some(t)) => format!("at {}, cell {}", point(p), file_cell(t)),
-                    (Some(p), None) => format!("at {}", point(p)),
-                    (None, Some(t)) => format!("cell {}", file_cell(t)),
-                    (None, None) => String::new(),
-                };
-                vec![
-                    name.to_string(),
-                    what.to_string(),
-                    format!("max {}", n(v.max)),
-                    format!("L² {}", n(v.l2)),
-                    at,
-                ]
-            } else {
-                vec![name.to_string(), what.to_string(), "none".into()]
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    match file {
+        Some(f) => {
+            rows.push(vec![
+                String::new(),
+                String::new(),
+                format!(
+                    "file ({}{})",
+                    if f.displacement_from_file {
+                        "u_h"
+                    } else {
+                        "u_h rebuilt"
+                    },
+                    if f.stress_from_file {
+                        ", σ_h"
+                    } else {
+                        ", σ_h used"
+                    }
+                ),
+                "used in F".into(),
+                "where (file)".into(),
+            ]);
+            for (k, u) in f.admissibility.kinds().iter().zip(used.kinds()) {
+                rows.push(vec![
+                    k.0.to_string(),
+                    k.1.to_string(),
+                    value(k.2, k.3),
+                    value(u.2, u.3),
+                    if k.3 { cell_of(k.2) } else { String::new() },
+                ]);
             }
-        })
-        .collect();
+        }
+        None => {
+            for k in used.kinds() {
+                rows.push(vec![
+                    k.0.to_string(),
+                    k.1.to_string(),
+                    value(k.2, k.3),
+                    if k.3 { cell_of(k.2) } else { String::new() },
+                ]);
+            }
+        }
+    }
     table(&mut o, 2, &[], &rows);
 
     // 3. Functional.
@@ -209,6 +283,22 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         "\nFunctional F (norm {}, length scale ℓ = {})",
         est.norm,
         n(est.length_scale)
+    );
+    let _ = writeln!(
+        o,
+        "  norm {}: {}",
+        est.norm,
+        match est.norm {
+            Norm::Energy => "constitutive term ½(C e, e) with e = ε(u_h) − Aσ_h: the energy norm",
+            Norm::Robust => "constitutive term μ e:e: stays bounded as ν → 0.5 (incompressible)",
+            Norm::Seed => "the talk's unweighted ½ e:e and ½‖div σ_h + f‖² (no material scaling)",
+        }
+    );
+    let _ = writeln!(
+        o,
+        "  ℓ weights the equilibrium term ½ ℓ²/(2μ) ‖div σ_h + f‖² (default diam(Ω)/π); the \
+         negative part of a boundary term is ∫ min(integrand, 0), nonzero only for an \
+         inadmissible pair, so shares can exceed 100 %"
     );
     let mut rows = vec![vec![
         "term".to_string(),
@@ -379,6 +469,35 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             percent(mark::share(&e2, &m.cells), 1.0)
         );
     }
+    // Next step: where to refine.
+    if est.cells.constitutive.len() > 1 && run.marked.is_none() {
+        let e2 = super::eta_squared(c);
+        let marked = mark::dorfler(&e2, 0.5);
+        let count = marked.iter().filter(|&&b| b).count();
+        let (mut cx, mut cy, mut w) = (0.0, 0.0, 0.0);
+        for (t, &m) in marked.iter().enumerate() {
+            if m {
+                let v = mesh.vertices(t);
+                let k = v.len() as f64;
+                for &p in v {
+                    cx += mesh.points[p as usize][0] / k;
+                    cy += mesh.points[p as usize][1] / k;
+                }
+                w += 1.0;
+            }
+        }
+        if w > 0.0 {
+            let _ = writeln!(
+                o,
+                "\nNext step\n  refine the {count} of {} cells that hold half of F (Dörfler θ = 0.5; their \
+                 centre of mass is {}): `fosls estimate {} --mark 0.5 --output marked.vtu` writes \
+                 them as cell data `marked`",
+                marked.len(),
+                point([cx / w, cy / w]),
+                run.solution.display()
+            );
+        }
+    }
     if !run.stages.is_empty() {
         let _ = writeln!(o, "\nTime");
         let mut rows: Vec<Vec<String>> = run
@@ -426,7 +545,7 @@ mod tests {
         assert!(line(&t, "note").contains("1 vertex cell ignored"));
         assert!(line(&t, "boundary").contains("bottom (contact): 2 edges, length 1"));
 
-        assert!(line(&t, "Admissibility").ends_with("1 kind of violation"));
+        assert!(line(&t, "Admissibility").starts_with("Admissibility: 1 kind of violation ("));
         assert!(line(&t, "penetration").ends_with("max 0.0025  L² 0.00125  at (0.25, 0), cell 1"));
         assert!(line(&t, "tension").ends_with("none"));
 
