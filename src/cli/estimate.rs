@@ -13,7 +13,7 @@ use fosls::problem::{self, Stress};
 use fosls::read::scene::{self, Norm, Scene};
 use fosls::{Error, mesh, read, reconstruct, report, topology};
 
-use super::{EstimateArgs, NormArg, Source, check_output, write_json};
+use super::{EstimateArgs, NormArg, Source};
 
 /// The scene for `file`: `--scene`, else `<stem>.toml` beside it, else `scene.toml` there.
 fn find_scene(file: &Path, given: Option<&Path>) -> Result<PathBuf, Error> {
@@ -102,17 +102,25 @@ fn add_reconstructed(
 
 /// Runs the estimate command.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
-    for out in [args.json.as_deref(), args.output.as_deref()]
-        .into_iter()
-        .flatten()
-    {
-        if out != Path::new("-") {
-            check_output(&args.file, out)?;
-        }
+    // issue 14: every input and output path checked before the work (fosls::write::output).
+    let mut plan = fosls::write::OutputPlan::new();
+    plan.input(&args.file, "input file")?;
+    if let Ok(scene) = find_scene(&args.file, args.scene.as_deref()) {
+        plan.input(&scene, "scene file")?;
     }
-    if let Some(out) = &args.output {
-        check_output(&args.file, &report::vtu::discontinuous_path(out))?;
-    }
+    let json_out = args
+        .json
+        .as_deref()
+        .map(|j| plan.output(j, "--json"))
+        .transpose()?;
+    let vtu_out = args
+        .output
+        .as_deref()
+        .map(|o| plan.output_file(o, "--output"))
+        .transpose()?;
+    let copy_out = (args.output.as_deref())
+        .map(|o| plan.output_file(&report::vtu::discontinuous_path(o), "--output's copy"))
+        .transpose()?;
     if let Some(theta) = args.mark {
         report::mark::check_theta(theta)?;
     }
@@ -125,13 +133,22 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
 
     let bar = stage(args.quiet, "reading the solution");
     let vtu = read::vtu::read_vtu(&args.file)?;
+    read::vtu::check_coordinates(&vtu)?; // issue 14
     let data = mesh::build(vtu)?;
     let topo = topology::build(&data)?;
     bar.finish_and_clear();
     lap("read", &mut stages);
 
+    fosls::limits::set_stage("reading the scene"); // issue 14
     let scene_path = find_scene(&args.file, args.scene.as_deref())?;
     let scene: Scene = scene::load_scene(&scene_path)?;
+    let line_cell = |l: usize| data.mesh.line_cell[l] as usize; // issue 14: tags as inspect
+    read::vtu::check_tags(
+        &args.file,
+        &data.line_data,
+        scene.tag_array_name(),
+        line_cell,
+    )?;
     let norm = match args.norm {
         None => scene.effective_norm(),
         Some(NormArg::Energy) if scene.material.is_incompressible() => {
@@ -556,38 +573,45 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
             _ => None,
         };
         add_reconstructed(&mut file, &data, reconstruction.as_ref(), displacement);
-        fosls::write::write_vtu(out, &file, fosls::write::Placement::AppendedRaw)?;
+        let placement = fosls::write::Placement::AppendedRaw;
+        if let Some(id) = vtu_out {
+            plan.stage_vtu(id, &file, placement)?; // issue 14
+        }
         if reconstruction.is_some() || rebuilt.is_some() || projection.is_some() {
             let copy = report::vtu::discontinuous_path(out);
             let file = report::vtu::discontinuous_file(&copy, &data.mesh, sigma, u, &est);
-            fosls::write::write_vtu(&copy, &file, fosls::write::Placement::AppendedRaw)?;
+            if let Some(id) = copy_out {
+                plan.stage_vtu(id, &file, placement)?; // issue 14
+            }
         }
     }
-    if let Some(j) = &args.json {
+    if let Some(id) = json_out {
         let r = report::json::report(&run, &est, &data.mesh);
-        write_json(j, &r)?;
+        plan.stage_json(id, &r)?; // issue 14
     }
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
     if !args.quiet && !to_stdout {
-        print!("{}", report::text::render(&run, &est, &data.mesh));
+        let text = report::text::render(&run, &est, &data.mesh);
+        fosls::write::stdio::write_stdout(text.as_bytes())?; // issue 14
     }
+    plan.commit()?; // issue 14: outputs appear only now
 
     if let Some(x) = args.fail_above {
         let over = est.relative.is_none_or(|r| r > x);
         if over {
             if !args.quiet {
-                eprintln!(
+                fosls::write::stdio::note_line(&format!(
                     "fosls: relative error {} exceeds --fail-above {x}",
                     est.relative
                         .map_or("undefined (F < 0)".into(), |r| format!("{r:.3e}"))
-                );
+                ));
             }
             return Ok(ExitCode::from(1));
         }
     }
     if args.strict && !failed.is_empty() {
         if !args.quiet {
-            eprintln!("fosls: --strict: {}", failed.join("; "));
+            fosls::write::stdio::note_line(&format!("fosls: --strict: {}", failed.join("; ")));
         }
         return Ok(ExitCode::from(1));
     }
