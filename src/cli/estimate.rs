@@ -119,7 +119,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         .map(|o| plan.output_file(o, "--output"))
         .transpose()?;
     let copy_out = (args.output.as_deref())
-        .map(|o| plan.output_file(&report::vtu::discontinuous_path(o), "--output's copy"))
+        .map(|o| plan.optional_output(&report::vtu::discontinuous_path(o), "--output's copy"))
         .transpose()?;
     if let Some(theta) = args.mark {
         report::mark::check_theta(theta)?;

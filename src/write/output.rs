@@ -345,6 +345,8 @@ struct Planned {
     identity: Identity,
     target: Target,
     staged: Staged,
+    /// A resolution error of an optional output, raised when it is staged.
+    deferred: Option<std::io::Error>,
 }
 
 struct Input {
@@ -372,7 +374,7 @@ impl OutputPlan {
 
     fn refuse_input(out: &Planned, input: &Input) -> Error {
         // Same spelling: the line names the file once.
-        let problem = if out.given == input.given {
+        let problem = if out.given.as_os_str() == input.given.as_os_str() {
             format!("refusing to overwrite the {}", input.role)
         } else {
             format!(
@@ -414,6 +416,7 @@ impl OutputPlan {
             identity,
             target,
             staged: Staged::None,
+            deferred: None,
         };
         if let Some(i) = self
             .inputs
@@ -427,7 +430,7 @@ impl OutputPlan {
             .iter()
             .find(|o| o.identity.same(&planned.identity))
         {
-            let what = if o.given == planned.given {
+            let what = if o.given.as_os_str() == planned.given.as_os_str() {
                 format!("{} and {} would both write this file", o.role, planned.role)
             } else {
                 format!(
@@ -445,6 +448,39 @@ impl OutputPlan {
         }
         self.outputs.push(planned);
         Ok(OutputId(self.outputs.len() - 1))
+    }
+
+    /// Plans an output the run may or may not write (a copy written only in some cases): like
+    /// [`output_file`](Self::output_file), refused at once if it is an input or another
+    /// output, but a path that cannot be resolved (a name past `NAME_MAX`) is an error only
+    /// when it is staged.
+    pub fn optional_output(&mut self, path: &Path, role: &str) -> Result<OutputId> {
+        match self.output_file(path, role) {
+            Err(Error::Io { source, .. }) => {
+                let resolved = path.to_path_buf();
+                let dir = match path.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                    _ => PathBuf::from("."),
+                };
+                self.outputs.push(Planned {
+                    role: role.to_string(),
+                    given: path.to_path_buf(),
+                    identity: Identity {
+                        path: lexical(path).unwrap_or_else(|_| resolved.clone()),
+                        id: None,
+                    },
+                    target: Target::Replace {
+                        path: resolved,
+                        dir,
+                        mode: None,
+                    },
+                    staged: Staged::None,
+                    deferred: Some(source),
+                });
+                Ok(OutputId(self.outputs.len() - 1))
+            }
+            other => other,
+        }
     }
 
     /// Like [`output`](Self::output), but refuses `-` (for outputs that cannot go to standard
@@ -471,8 +507,12 @@ impl OutputPlan {
     /// Stages the content of output `id`: written and synced to a temporary file now (or kept
     /// for a direct target), published by [`commit`](Self::commit).
     pub fn stage(&mut self, id: OutputId, bytes: &[u8]) -> Result<()> {
+        crate::limits::set_stage("writing the outputs");
         let o = &mut self.outputs[id.0];
         let given = o.given.clone();
+        if let Some(e) = o.deferred.take() {
+            return Err(Error::io(&given, e));
+        }
         match &o.target {
             Target::Stdout | Target::Direct(_) => {
                 o.staged = Staged::Bytes(bytes.to_vec());
@@ -525,6 +565,9 @@ impl OutputPlan {
     /// [`commit`](Self::commit); `last` marks the process's outputs as committed (after which
     /// a deadline or a signal no longer removes anything).
     fn publish(self, last: bool) -> Result<()> {
+        if last {
+            crate::limits::set_stage("writing the outputs");
+        }
         let mut temps: Vec<(PathBuf, PathBuf, Temp)> = Vec::new();
         for o in self.outputs {
             match (o.staged, &o.target) {

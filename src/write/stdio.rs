@@ -3,9 +3,10 @@
 //! `print!` panics when standard output fails (a closed pipe, `/dev/full`), and Rust's
 //! `std::io::stdout` silently discards everything when file descriptor 1 is closed. Here:
 //!
-//! - [`guard_standard_streams`], called first thing in `main`, fills closed descriptors 0, 1
-//!   and 2 with `/dev/null` (so that no file fosls opens later becomes "standard output") and
-//!   remembers that standard output was closed;
+//! - whether descriptor 1 was closed is recorded before `main` runs (a constructor in
+//!   `.init_array`: Rust's runtime then opens `/dev/null` on closed standard descriptors, so
+//!   that no file fosls opens later becomes "standard output", and writes to it would vanish);
+//!   [`guard_standard_streams`], called first thing in `main`, fills any hole left;
 //! - [`write_stdout`] writes and flushes, returning an error naming "standard output" for a
 //!   broken pipe, a full disk or a closed descriptor;
 //! - [`error_line`] and [`note_line`] write one line to standard error, made safe for a
@@ -20,6 +21,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use crate::error::{Error, Result};
 
 static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// Runs before Rust's runtime replaces closed standard descriptors with `/dev/null`: records
+/// whether descriptor 1 is open (`/proc/self/fd/1` exists; without `/proc`, it counts as open).
+extern "C" fn probe_stdout() {
+    if let Err(e) = std::fs::symlink_metadata("/proc/self/fd/1")
+        && e.kind() == std::io::ErrorKind::NotFound
+        && std::fs::symlink_metadata("/proc/self/fd").is_ok()
+    {
+        STDOUT_CLOSED.store(true, Ordering::SeqCst);
+    }
+}
+
+#[used]
+#[unsafe(link_section = ".init_array")]
+static PROBE_STDOUT: extern "C" fn() = probe_stdout;
 
 /// The name standard output has in messages.
 pub const STDOUT_NAME: &str = "standard output";
@@ -37,6 +53,8 @@ fn is_open(fd: i32) -> bool {
 /// Fills closed standard descriptors with `/dev/null` and records whether standard output was
 /// closed (then [`write_stdout`] fails). Call before any file is opened.
 pub fn guard_standard_streams() {
+    // Keeps the constructor (and so the record made before `main`) in the binary.
+    std::hint::black_box(&PROBE_STDOUT);
     let closed: Vec<i32> = (0..3).filter(|&fd| !is_open(fd)).collect();
     if closed.contains(&1) {
         STDOUT_CLOSED.store(true, Ordering::SeqCst);
