@@ -120,7 +120,9 @@ pub fn clean_line(line: &str) -> String {
                 .map_or(chars.len(), |p| i + 1 + p);
             let inner = &chars[i + 1..end];
             out.push('"');
-            if inner.len() > MAX_QUOTED_CHARS {
+            // (Already cut by `quote`: 200 characters and "…".)
+            let cut = inner.len() == MAX_QUOTED_CHARS + 1 && inner.last() == Some(&'…');
+            if inner.len() > MAX_QUOTED_CHARS && !cut {
                 out.extend(&inner[..MAX_QUOTED_CHARS]);
                 out.push('…');
                 if end < chars.len() {

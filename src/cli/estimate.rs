@@ -592,7 +592,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
     if !args.quiet && !to_stdout {
         let text = report::text::render(&run, &est, &data.mesh);
-        fosls::write::stdio::write_stdout(text.as_bytes())?; // issue 14
+        fosls::write::stdio::write_stdout_text(&text)?; // issue 14
     }
     plan.commit()?; // issue 14: outputs appear only now
 

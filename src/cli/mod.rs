@@ -169,7 +169,7 @@ fn inspect_file(file: &Path, json: Option<&Path>, quiet: bool) -> anyhow::Result
     let summary = inspect::summary(&vtu, &data, &topo);
     let to_stdout = json == Some(Path::new("-"));
     if !quiet && !to_stdout {
-        write::stdio::write_stdout(inspect::render(&summary).as_bytes())?; // issue 14
+        write::stdio::write_stdout_text(&inspect::render(&summary))?; // issue 14
     }
     // Non-finite values make the file unusable: the text summary shows where they are, the
     // exit status says so, and no JSON is written for a failed run.

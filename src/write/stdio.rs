@@ -100,6 +100,27 @@ pub fn write_stdout(bytes: &[u8]) -> Result<()> {
     out.flush().map_err(fail)
 }
 
+/// Writes a text report to standard output ([`write_stdout`]) with its control characters
+/// other than newline and tab escaped ([`crate::error::escape_controls`]): names from files and
+/// scenes never reach the terminal raw.
+pub fn write_stdout_text(text: &str) -> Result<()> {
+    if !text
+        .chars()
+        .any(|c| c.is_control() && c != '\n' && c != '\t')
+    {
+        return write_stdout(text.as_bytes());
+    }
+    let mut safe = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        if c.is_control() && c != '\n' && c != '\t' {
+            safe.push_str(&crate::error::escape_controls(c.encode_utf8(&mut [0; 4])));
+        } else {
+            safe.push(c);
+        }
+    }
+    write_stdout(safe.as_bytes())
+}
+
 /// Writes `error: LINE` on standard error, as one safe line; failures are ignored.
 pub fn error_line(line: &str) {
     note_line(&format!("error: {line}"));
