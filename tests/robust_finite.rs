@@ -349,3 +349,27 @@ fn nan_and_fractional_tags_are_refused() {
         );
     }
 }
+
+/// Found by `tests/fuzz_estimate.rs`: a NaN relative error passed `--fail-above` (NaN > x is
+/// false) and the run exited 0. It now counts as exceeding (status 1; status 2 once the
+/// estimator refuses non-finite results).
+#[test]
+fn fail_above_never_passes_a_non_finite_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = std::fs::read_to_string(fixture(EXACT, "scene.toml")).unwrap();
+    let scene_path = dir.path().join("s.toml");
+    std::fs::write(&scene_path, scene.replacen(BODY, "\"1/0\"", 1)).unwrap();
+    let out = Command::new(BIN)
+        .arg("estimate")
+        .arg(fixture(EXACT, "solution.vtu"))
+        .arg("--scene")
+        .arg(&scene_path)
+        .args(["--fail-above", "1e30", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(
+        matches!(out.status.code(), Some(1) | Some(2)),
+        "{:?}",
+        out.status
+    );
+}

@@ -597,7 +597,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     plan.commit()?; // issue 14: outputs appear only now
 
     if let Some(x) = args.fail_above {
-        let over = est.relative.is_none_or(|r| r > x);
+        let over = est.relative.is_none_or(|r| r.is_nan() || r > x); // issue 14: NaN exceeds
         if over {
             if !args.quiet {
                 fosls::write::stdio::note_line(&format!(
