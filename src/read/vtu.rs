@@ -873,8 +873,20 @@ fn finish_array<'a>(
         component_names: Vec::new(),
         source: Source::Appended(0),
     };
-    let place = spec.place(piece_count);
-    let err = |problem: String| Error::input(path, &place, problem);
+    // The place is only built for a message (a file may hold many arrays).
+    let name_in_file = get(&attrs, "Name").unwrap_or("");
+    let err = |problem: String| {
+        let named = ArraySpec {
+            piece,
+            role,
+            name: name_in_file.to_string(),
+            scalar: Scalar::Float64,
+            components: 1,
+            component_names: Vec::new(),
+            source: Source::Appended(0),
+        };
+        Error::input(path, named.place(piece_count), problem)
+    };
     if matches!(role, Role::PointData | Role::CellData) && spec.name.is_empty() {
         return Err(err("has no Name attribute".into()));
     }
@@ -1250,8 +1262,7 @@ fn assemble(
     // Point and cell arrays: the first piece sets names and components, the others must match.
     for role in [Role::PointData, Role::CellData] {
         let mut merged: Vec<DataArray> = Vec::new();
-        let mut by_name: std::collections::HashMap<String, usize> =
-            std::collections::HashMap::new();
+        let mut by_name: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
         for p in 0..npieces {
             let mine = std::mem::take(&mut data_arrays[p][usize::from(role == Role::CellData)]);
             let mut seen_here = std::collections::HashSet::new();
@@ -1279,7 +1290,7 @@ fn assemble(
                     return Err(err(&s.place(npieces), "appears twice".into()));
                 }
                 if p == 0 {
-                    by_name.insert(s.name.clone(), merged.len());
+                    by_name.insert(s.name.as_str(), merged.len());
                     merged.push(DataArray {
                         name: s.name.clone(),
                         scalar: s.scalar,
@@ -1288,7 +1299,7 @@ fn assemble(
                         values,
                     });
                 } else {
-                    let Some(a) = by_name.get(&s.name).map(|&k| &mut merged[k]) else {
+                    let Some(a) = by_name.get(s.name.as_str()).map(|&k| &mut merged[k]) else {
                         return Err(err(&s.place(npieces), "is not in piece 0".into()));
                     };
                     if a.components != s.components {
