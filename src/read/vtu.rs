@@ -742,7 +742,6 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         return Err(err("<UnstructuredGrid>", "has no <Piece>".into()));
     }
 
-    let mut appended = appended;
     let mut formats: Vec<&str> = Vec::new();
     for s in &specs {
         let f = match s.source {
@@ -1263,8 +1262,8 @@ fn assemble(
     for role in [Role::PointData, Role::CellData] {
         let mut merged: Vec<DataArray> = Vec::new();
         let mut by_name: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
-        for p in 0..npieces {
-            let mine = std::mem::take(&mut data_arrays[p][usize::from(role == Role::CellData)]);
+        for (p, arrays) in data_arrays.iter_mut().enumerate() {
+            let mine = std::mem::take(&mut arrays[usize::from(role == Role::CellData)]);
             let mut seen_here = std::collections::HashSet::new();
             if p > 0 && mine.len() != merged.len() {
                 return Err(err(
