@@ -350,26 +350,37 @@ fn nan_and_fractional_tags_are_refused() {
     }
 }
 
-/// Found by `tests/fuzz_estimate.rs`: a NaN relative error passed `--fail-above` (NaN > x is
-/// false) and the run exited 0. It now counts as exceeding (status 1; status 2 once the
-/// estimator refuses non-finite results).
+/// Found by `tests/fuzz_estimate.rs`: a NaN relative error (F and the energy both infinite:
+/// no displacement in the file, a stress of 1e200) passed `--fail-above` (NaN > x is false)
+/// and the run exited 0. It now counts as exceeding (status 1; status 2 once the estimator
+/// refuses non-finite results).
 #[test]
 fn fail_above_never_passes_a_non_finite_estimate() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = std::fs::read_to_string(fixture(EXACT, "scene.toml")).unwrap();
-    let scene_path = dir.path().join("s.toml");
-    std::fs::write(&scene_path, scene.replacen(BODY, "\"1/0\"", 1)).unwrap();
+    let bytes = std::fs::read(fixture(EXACT, "solution.vtu")).unwrap();
+    let mut file = parse_vtu(Path::new("solution.vtu"), &bytes).unwrap();
+    file.point_data.retain(|a| a.name != "displacement");
+    scale_array(&mut file, "stress", 1e200);
+    let path = dir.path().join("solution.vtu");
+    std::fs::write(&path, to_bytes(&file, Placement::AppendedRaw)).unwrap();
+    std::fs::copy(
+        fixture(EXACT, "scene.toml"),
+        dir.path().join("solution.toml"),
+    )
+    .unwrap();
+    let json = dir.path().join("r.json");
     let out = Command::new(BIN)
         .arg("estimate")
-        .arg(fixture(EXACT, "solution.vtu"))
-        .arg("--scene")
-        .arg(&scene_path)
-        .args(["--fail-above", "1e30", "--quiet"])
+        .arg(&path)
+        .arg("--json")
+        .arg(&json)
+        .args(["--fail-above", "0", "--quiet"])
         .output()
         .unwrap();
     assert!(
         matches!(out.status.code(), Some(1) | Some(2)),
-        "{:?}",
-        out.status
+        "{:?}: {}",
+        out.status,
+        std::fs::read_to_string(&json).unwrap_or_default()
     );
 }
