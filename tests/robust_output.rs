@@ -341,8 +341,8 @@ fn modes_are_kept() {
 }
 
 /// Starts `estimate` with `--output o.vtu --json fifo`: the run stages o.vtu as a temporary
-/// file, then blocks in the commit opening the FIFO (no reader). Returns once the temporary
-/// file is there.
+/// file, then blocks in the commit opening the FIFO (no reader). Returns once the staged
+/// temporary file is there.
 fn blocked_run(dir: &Path, vtu: &Path, extra: &[&str]) -> std::process::Child {
     let fifo = dir.join("fifo");
     if !fifo.exists() {
@@ -368,7 +368,13 @@ fn blocked_run(dir: &Path, vtu: &Path, extra: &[&str]) -> std::process::Child {
         .spawn()
         .unwrap();
     let start = Instant::now();
-    while !listing(dir).iter().any(|n| n.starts_with(".fosls-")) {
+    // The staged VTU (not the empty probe the plan makes when it checks the folder).
+    let staged = |dir: &Path| {
+        listing(dir).iter().any(|n| {
+            n.starts_with(".fosls-") && std::fs::metadata(dir.join(n)).is_ok_and(|m| m.len() > 0)
+        })
+    };
+    while !staged(dir) {
         assert!(
             start.elapsed() < Duration::from_secs(120),
             "no temporary file appeared: {:?}",
