@@ -905,7 +905,8 @@ fn finish_array<'a>(
             })?;
     }
     // Component names by index, in one pass over the attributes (an element may hold many).
-    let mut names: Vec<Option<&str>> = vec![None; spec.components];
+    let named = attrs.iter().any(|(k, _)| k.starts_with("ComponentName"));
+    let mut names: Vec<Option<&str>> = vec![None; if named { spec.components } else { 0 }];
     for (k, v) in &attrs {
         if let Some(i) = k
             .strip_prefix("ComponentName")
