@@ -422,7 +422,10 @@ enum Tag {
 }
 
 /// A DataArray being read: its section, attributes and text segments so far.
-type OpenArray<'a> = (Tag, Vec<(String, String)>, Vec<Cow<'a, [u8]>>);
+type OpenArray<'a> = (Tag, Attrs<'a>, Vec<Cow<'a, [u8]>>);
+
+/// Attributes of one element, borrowed from the file where no normalisation was needed.
+type Attrs<'a> = Vec<(Cow<'a, str>, Cow<'a, str>)>;
 
 /// The appended-data section: its bytes (after the `_` marker) and its encoding.
 struct Appended<'a> {
@@ -432,7 +435,39 @@ struct Appended<'a> {
     offsets: Vec<usize>,
 }
 
-fn attr_map(e: &BytesStart<'_>) -> std::result::Result<Vec<(String, String)>, String> {
+/// `part` as a slice of `input` when it lies inside it (the events of a slice reader borrow
+/// from the file): attributes can then be kept without copies.
+fn within<'a>(input: &'a [u8], part: &str) -> Option<&'a str> {
+    let start = (part.as_ptr() as usize).checked_sub(input.as_ptr() as usize)?;
+    let bytes = input.get(start..start.checked_add(part.len())?)?;
+    if bytes != part.as_bytes() {
+        return None;
+    }
+    std::str::from_utf8(bytes).ok()
+}
+
+/// The attributes of `e`, borrowed from `input` where possible (a file may hold many
+/// elements: one copy per attribute was most of the cost of reading many small arrays).
+fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attrs<'a>, String> {
+    if let Some(raw) = within(input, e.attributes_raw()) {
+        let mut out = Vec::new();
+        let mut ok = true;
+        for a in quick_xml::events::attributes::Attributes::new(raw, 0) {
+            let Ok(a) = a else {
+                ok = false;
+                break;
+            };
+            let Ok(value) = a.normalized_value(quick_xml::XmlVersion::Implicit1_0) else {
+                ok = false;
+                break;
+            };
+            out.push((Cow::Borrowed(a.key.0), value));
+        }
+        if ok {
+            return Ok(out);
+        }
+        // An error: the messages (and their positions) are those of the element's own parse.
+    }
     let mut out = Vec::new();
     for a in e.attributes() {
         let a = a.map_err(|err| format!("malformed attribute ({err})"))?;
@@ -441,16 +476,16 @@ fn attr_map(e: &BytesStart<'_>) -> std::result::Result<Vec<(String, String)>, St
             .normalized_value(quick_xml::XmlVersion::Implicit1_0)
             .map_err(|err| format!("malformed attribute {key} ({err})"))?
             .into_owned();
-        out.push((key, value));
+        out.push((Cow::Owned(key), Cow::Owned(value)));
     }
     Ok(out)
 }
 
-fn get<'m>(attrs: &'m [(String, String)], key: &str) -> Option<&'m str> {
+fn get<'m>(attrs: &'m [(Cow<'_, str>, Cow<'_, str>)], key: &str) -> Option<&'m str> {
     attrs
         .iter()
         .find(|(k, _)| k == key)
-        .map(|(_, v)| v.as_str())
+        .map(|(_, v)| v.as_ref())
 }
 
 fn text_bytes(t: Cow<'_, str>) -> Cow<'_, [u8]> {
@@ -473,7 +508,7 @@ fn appended_section<'a>(
     tag_end: usize,
 ) -> Result<Appended<'a>> {
     let err = |problem: &str| Error::input(path, "<AppendedData>", problem);
-    let attrs = attr_map(e).map_err(|problem| err(&problem))?;
+    let attrs = attr_map(bytes, e).map_err(|problem| err(&problem))?;
     let base64 = match get(&attrs, "encoding") {
         Some("base64") => true,
         Some("raw") => false,
@@ -594,8 +629,8 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 _ => Tag::Other,
             };
-            let attrs =
-                attr_map(&e).map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
+            let attrs = attr_map(bytes, &e)
+                .map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
             match tag {
                 Tag::File => {
                     seen_root = true;
@@ -847,7 +882,7 @@ fn finish_array<'a>(
     path: &Path,
     piece_count: usize,
     section: Tag,
-    attrs: Vec<(String, String)>,
+    attrs: Attrs<'a>,
     texts: Vec<Cow<'a, [u8]>>,
 ) -> Result<Option<ArraySpec<'a>>> {
     let piece = piece_count.saturating_sub(1);
@@ -914,7 +949,7 @@ fn finish_array<'a>(
             && i < names.len()
             && names[i].is_none()
         {
-            names[i] = Some(v.as_str());
+            names[i] = Some(v.as_ref());
         }
     }
     for n in names {
