@@ -271,13 +271,19 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
 
     progress.stage("reading the solution");
     let vtu = read::vtu::read_vtu(&opts.file)?;
+    read::vtu::check_coordinates(&vtu)?;
     let data = mesh::build(vtu)?;
     let topo = topology::build(&data)?;
     progress.done();
     lap("read", &mut stages);
 
+    crate::limits::set_stage("reading the scene");
     let scene_path = find_scene(&opts.file, opts.scene.as_deref())?;
     let scene: Scene = scene::load_scene(&scene_path)?;
+    // Tags as `inspect` reads them: NaN or fractional tag values are refused, not ignored.
+    read::vtu::check_tags(&opts.file, &data.line_data, scene.tag_array_name(), |l| {
+        data.mesh.line_cell[l] as usize
+    })?;
     let norm = match opts.norm {
         None => scene.effective_norm(),
         Some(Norm::Energy) if scene.material.is_incompressible() => {
@@ -642,8 +648,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     })
 }
 
-/// Writes the `--output` VTU (and its discontinuous copy when a field was rebuilt).
-pub fn write_outputs(audit: &Audit, out: &Path) -> Result<(), Error> {
+/// The `--output` VTU for `out` and, when a field was rebuilt, its discontinuous copy
+/// (docs/design.md §8.3), for the caller to write (the output plan of [`crate::write`]
+/// publishes them only when the run succeeds).
+pub fn output_files(
+    audit: &Audit,
+    out: &Path,
+) -> (crate::read::vtu::VtuFile, Option<crate::read::vtu::VtuFile>) {
     let (data, est, run) = (&audit.data, &audit.estimate, &audit.run);
     let (reconstruction, rebuilt, projection) = (
         &audit.stress_reconstruction,
@@ -651,23 +662,19 @@ pub fn write_outputs(audit: &Audit, out: &Path) -> Result<(), Error> {
         &audit.projection,
     );
     let (sigma, u) = (audit.sigma(), audit.u.as_slice());
-    {
-        let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
-        let mut file = report::vtu::output_file(out, data, est, cells);
-        let displacement = match (&rebuilt, &projection) {
-            (Some(r), _) => Some(("displacement_reconstructed", r.displacement.as_slice())),
-            (None, Some(p)) => Some(("displacement_projected", p.displacement.as_slice())),
-            _ => None,
-        };
-        add_reconstructed(&mut file, data, reconstruction.as_ref(), displacement);
-        crate::write::write_vtu(out, &file, crate::write::Placement::AppendedRaw)?;
-        if reconstruction.is_some() || rebuilt.is_some() || projection.is_some() {
-            let copy = report::vtu::discontinuous_path(out);
-            let file = report::vtu::discontinuous_file(&copy, &data.mesh, sigma, u, est);
-            crate::write::write_vtu(&copy, &file, crate::write::Placement::AppendedRaw)?;
-        }
-    }
-    Ok(())
+    let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
+    let mut file = report::vtu::output_file(out, data, est, cells);
+    let displacement = match (&rebuilt, &projection) {
+        (Some(r), _) => Some(("displacement_reconstructed", r.displacement.as_slice())),
+        (None, Some(p)) => Some(("displacement_projected", p.displacement.as_slice())),
+        _ => None,
+    };
+    add_reconstructed(&mut file, data, reconstruction.as_ref(), displacement);
+    let copy = (reconstruction.is_some() || rebuilt.is_some() || projection.is_some()).then(|| {
+        let path = report::vtu::discontinuous_path(out);
+        report::vtu::discontinuous_file(&path, &data.mesh, sigma, u, est)
+    });
+    (file, copy)
 }
 
 #[cfg(test)]

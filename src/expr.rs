@@ -48,6 +48,14 @@ const MAX_DEPTH: usize = 256;
 /// (each level costs several stack frames of the recursive-descent parser).
 const MAX_NESTING: usize = 64;
 
+/// Most nodes of a compiled tree (after constant folding): an evaluation costs at most this
+/// many operations, so the cost of an expression over a mesh is bounded by this times the
+/// number of evaluation points. Scene expressions have a few dozen nodes.
+pub const MAX_NODES: usize = 10_000;
+
+/// Most tokens of an expression's text (bounds the parser's time and memory before folding).
+pub const MAX_TOKENS: usize = 1_000_000;
+
 /// A parsed user expression in x, y, z.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Expr {
@@ -72,6 +80,12 @@ impl Expr {
             depth: 0,
         };
         let tree = parser.parse_or()?;
+        let nodes = tree.node.count();
+        if nodes > MAX_NODES {
+            return Err(format!(
+                "expression too large ({nodes} nodes after constant folding, limit {MAX_NODES})"
+            ));
+        }
         match parser.peek() {
             Tok::End => {}
             Tok::Comma => {
@@ -107,6 +121,34 @@ impl Expr {
             Node::Num(v) => *v,
             node => node.eval(&[x, y, z]),
         }
+    }
+
+    /// The value at (x, y, z) when it is finite; otherwise an error naming the expression, the
+    /// point and the value, e.g. `"1/x" is infinite at (x, y) = (0, 0.5)`.
+    pub fn eval_finite(&self, x: f64, y: f64, z: f64) -> Result<f64, String> {
+        let v = self.eval(x, y, z);
+        if v.is_finite() {
+            return Ok(v);
+        }
+        let what = if v.is_nan() {
+            "not a number (NaN)"
+        } else {
+            "infinite"
+        };
+        let at = if z == 0.0 {
+            format!("(x, y) = ({x:?}, {y:?})")
+        } else {
+            format!("(x, y, z) = ({x:?}, {y:?}, {z:?})")
+        };
+        Err(format!(
+            "expression {} is {what} at {at}",
+            crate::error::quote(&self.source)
+        ))
+    }
+
+    /// Number of nodes of the compiled tree (1 for a constant): the cost of one evaluation.
+    pub fn node_count(&self) -> usize {
+        self.node.count()
     }
 
     /// Whether the expression is true at (x, y, z), i.e. its value is > 0 (NaN is false).
@@ -364,6 +406,16 @@ impl Node {
             _ => None,
         }
     }
+
+    /// Nodes of the tree (its depth is bounded by [`MAX_DEPTH`], so recursion is safe).
+    fn count(&self) -> usize {
+        match self {
+            Node::Num(_) | Node::Var(_) => 1,
+            Node::Unary(_, a) | Node::Call1(_, a) => 1 + a.count(),
+            Node::Binary(_, a, b) => 1 + a.count() + b.count(),
+            Node::Call(_, args) => 1 + args.iter().map(Node::count).sum::<usize>(),
+        }
+    }
 }
 
 /// A sub-tree under construction with its depth (bounded by [`MAX_DEPTH`]).
@@ -497,12 +549,13 @@ fn lex(src: &str) -> Result<Vec<Token>, String> {
                 }
             }
             let text: String = chars[start..i].iter().collect();
+            let shown = crate::error::shorten(&text);
             let value: f64 = text
                 .parse()
-                .map_err(|_| format!("invalid number '{text}' at column {}", start + 1))?;
+                .map_err(|_| format!("invalid number '{shown}' at column {}", start + 1))?;
             if !value.is_finite() {
                 return Err(format!(
-                    "number '{text}' at column {} is out of range",
+                    "number '{shown}' at column {} is out of range",
                     start + 1
                 ));
             }
@@ -581,6 +634,11 @@ fn lex(src: &str) -> Result<Vec<Token>, String> {
             column: start + 1,
             text: chars[start..i].iter().collect(),
         });
+        if tokens.len() > MAX_TOKENS {
+            return Err(format!(
+                "expression too long (more than {MAX_TOKENS} tokens)"
+            ));
+        }
     }
     if tokens.is_empty() {
         return Err("empty expression".to_string());
@@ -625,7 +683,11 @@ impl Parser<'_> {
         let token = &self.tokens[self.pos];
         match token.tok {
             Tok::End => "end of expression".to_string(),
-            _ => format!("'{}' at column {}", token.text.escape_debug(), token.column),
+            _ => format!(
+                "'{}' at column {}",
+                crate::error::shorten(&token.text),
+                token.column
+            ),
         }
     }
 
@@ -802,11 +864,16 @@ impl Parser<'_> {
                     _ if call => {
                         return Err(format!(
                             "unknown function '{}' (known: {})",
-                            name.escape_debug(),
+                            crate::error::shorten(&name),
                             FUNCTIONS.join(", ")
                         ));
                     }
-                    _ => return Err(format!("unknown variable '{}'", name.escape_debug())),
+                    _ => {
+                        return Err(format!(
+                            "unknown variable '{}'",
+                            crate::error::shorten(&name)
+                        ));
+                    }
                 };
                 if call {
                     return Err(format!("'{name}' is not a function"));
@@ -816,7 +883,7 @@ impl Parser<'_> {
             Tok::End => Err(match self.tokens[..self.pos].last() {
                 Some(previous) => format!(
                     "expected a value after '{}' at end of expression",
-                    previous.text.escape_debug()
+                    crate::error::shorten(&previous.text)
                 ),
                 None => "empty expression".to_string(),
             }),
@@ -1127,5 +1194,54 @@ mod tests {
         assert_eq!(ev(&fine, 2.0, 0.0, 0.0), 2.0);
         let sum = vec!["x"; 200].join(" + ");
         assert_eq!(ev(&sum, 1.0, 0.0, 0.0), 200.0);
+    }
+
+    #[test]
+    fn size_is_bounded_at_parse_time() {
+        // 10,000 arguments of max: 10,001 nodes.
+        let wide = format!("max({})", vec!["x"; 10_000].join(", "));
+        assert_eq!(
+            err(&wide),
+            "expression too large (10001 nodes after constant folding, limit 10000)"
+        );
+        let ok = format!("max({})", vec!["x"; 9_999].join(", "));
+        assert_eq!(parse(&ok).unwrap().node_count(), 10_000);
+        // Constants fold away and do not count.
+        let constants = format!("max({})", vec!["1"; 50_000].join(", "));
+        assert_eq!(parse(&constants).unwrap().node_count(), 1);
+        let long = "1".repeat(1_000_001);
+        assert!(err(&long).ends_with("is out of range"));
+        assert!(err(&long).len() < 300, "{}", err(&long).len());
+        let ident = "q".repeat(1 << 20);
+        assert_eq!(
+            err(&ident),
+            format!(
+                "unknown variable '{}… (1048576 characters)'",
+                "q".repeat(200)
+            )
+        );
+    }
+
+    #[test]
+    fn checked_evaluation_names_the_expression_and_the_point() {
+        let e = parse("1/x").unwrap();
+        assert_eq!(e.eval_finite(2.0, 0.0, 0.0), Ok(0.5));
+        assert_eq!(
+            e.eval_finite(0.0, 0.5, 0.0).unwrap_err(),
+            "expression \"1/x\" is infinite at (x, y) = (0.0, 0.5)"
+        );
+        let e = parse("sqrt(x - 0.5)").unwrap();
+        assert_eq!(
+            e.eval_finite(0.25, 1.0, 0.0).unwrap_err(),
+            "expression \"sqrt(x - 0.5)\" is not a number (NaN) at (x, y) = (0.25, 1.0)"
+        );
+        assert!(
+            parse("exp(1000*x)")
+                .unwrap()
+                .eval_finite(1.0, 0.0, 0.0)
+                .is_err()
+        );
+        assert!(parse("0/0").unwrap().eval_finite(0.0, 0.0, 0.0).is_err());
+        assert_eq!(parse("0/0").unwrap().node_count(), 1);
     }
 }

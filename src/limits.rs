@@ -13,13 +13,14 @@
 //! and every declared size is itself bounded by the bytes present in the file times the largest
 //! ratio its compressor can reach ([`crate::read::decode::max_ratio`]). The cap is
 //! [`DEFAULT_MAX_ALLOC`] unless the environment variable `FOSLS_MAX_ALLOC` gives another number
-//! of bytes (suffixes `K`, `M`, `G` for powers of 1024 are accepted).
+//! of bytes ([`parse_size`]: `512M`, `2G`, `1024K`, `2GiB`; a malformed value is refused by the
+//! binary at start, [`check_environment`]).
 //!
 //! **Time.** [`start_watchdog`] arms a thread that, when the deadline passes, prints one line
 //! naming the stage that was running (set with [`set_stage`]) and exits with status 2. Output
-//! files are written while holding [`output_lock`], which the watchdog takes before exiting:
-//! an output file is either complete or absent, never cut short, and no temporary file is left
-//! behind.
+//! files are staged as temporary files and published at the very end of a run while holding
+//! [`output_lock`] ([`crate::write::output`]); the watchdog removes every temporary file under
+//! that lock before exiting: no output file appears, and none is cut short or left behind.
 
 use std::io::Read;
 use std::path::Path;
@@ -33,26 +34,136 @@ use crate::error::Error;
 /// the project's machines have).
 pub const DEFAULT_MAX_ALLOC: u64 = 16 << 30;
 
-/// The global cap in bytes: `FOSLS_MAX_ALLOC` when it is set and valid, else
-/// [`DEFAULT_MAX_ALLOC`].
+/// The global cap in bytes: `FOSLS_MAX_ALLOC` when it is set, else [`DEFAULT_MAX_ALLOC`]. The
+/// binary refuses a malformed value at start ([`check_environment`]); a library caller that
+/// did not check gets the default for one.
 pub fn max_alloc() -> u64 {
     std::env::var("FOSLS_MAX_ALLOC")
         .ok()
-        .and_then(|v| parse_size(&v))
+        .and_then(|v| parse_size(&v).ok())
         .unwrap_or(DEFAULT_MAX_ALLOC)
 }
 
-/// Parses `"123"`, `"64K"`, `"512M"`, `"2G"` (powers of 1024) into bytes.
-pub fn parse_size(text: &str) -> Option<u64> {
+/// Parses a size in bytes, strictly: a whole number of bytes (`123`), or a whole number with a
+/// binary unit `K`, `M`, `G`, `T` or `KiB`, `MiB`, `GiB`, `TiB` (any case; powers of 1024:
+/// `64K`, `512M`, `2GiB`). Decimal units (`KB`, `MB`, …) are refused as ambiguous, and so are
+/// fractions, signs, zero, other text and sizes past 2⁶⁴ − 1.
+pub fn parse_size(text: &str) -> Result<u64, String> {
     let t = text.trim();
-    let (digits, shift) = match t.as_bytes().last()?.to_ascii_uppercase() {
-        b'K' => (&t[..t.len() - 1], 10),
-        b'M' => (&t[..t.len() - 1], 20),
-        b'G' => (&t[..t.len() - 1], 30),
-        _ => (t, 0),
+    if t.is_empty() {
+        return Err("is empty; give a number of bytes such as 512M or 2G".into());
+    }
+    let split = t.find(|c: char| !c.is_ascii_digit()).unwrap_or(t.len());
+    let (digits, unit) = t.split_at(split);
+    let unit_trimmed = unit.trim_start();
+    let shift = match unit_trimmed.to_ascii_lowercase().as_str() {
+        "" => 0,
+        "k" | "kib" => 10,
+        "m" | "mib" => 20,
+        "g" | "gib" => 30,
+        "t" | "tib" => 40,
+        "kb" | "mb" | "gb" | "tb" => {
+            return Err(format!(
+                "unit \"{unit_trimmed}\" is ambiguous (1000 or 1024?); write {0}{1} or {0}{1}iB \
+                 for powers of 1024",
+                digits,
+                &unit_trimmed[..1].to_ascii_uppercase()
+            ));
+        }
+        _ => {
+            return Err(
+                "is not a size: expected a whole number of bytes, optionally with K, M, G, T \
+                 (or KiB, MiB, GiB, TiB), e.g. 512M or 2G"
+                    .into(),
+            );
+        }
     };
-    let n: u64 = digits.trim().parse().ok()?;
+    if digits.is_empty() {
+        return Err(
+            "is not a size: expected a whole number of bytes, optionally with K, M, G, T \
+             (or KiB, MiB, GiB, TiB), e.g. 512M or 2G"
+                .into(),
+        );
+    }
+    let n: u64 = digits
+        .parse()
+        .map_err(|_| "is larger than 2^64 - 1 bytes".to_string())?;
+    if n == 0 {
+        return Err("is zero; the cap must be at least one byte".into());
+    }
     n.checked_mul(1u64 << shift)
+        .ok_or_else(|| "is larger than 2^64 - 1 bytes".to_string())
+}
+
+/// The most worker threads `RAYON_NUM_THREADS` may ask for.
+pub const MAX_THREADS: usize = 1024;
+
+/// Parses `RAYON_NUM_THREADS`: a whole number from 1 to [`MAX_THREADS`].
+pub fn parse_threads(text: &str) -> Result<usize, String> {
+    let t = text.trim();
+    match t.parse::<usize>() {
+        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "is not a whole number of threads from 1 to {MAX_THREADS}"
+        )),
+    }
+}
+
+/// Checks the environment the binary depends on and starts the thread pool: a malformed
+/// `FOSLS_MAX_ALLOC` or `RAYON_NUM_THREADS` is an error naming the variable and its value,
+/// and so is a pool that cannot be started (e.g. too many threads under a memory limit).
+pub fn check_environment() -> crate::Result<()> {
+    let var = |name: &str| -> crate::Result<Option<String>> {
+        match std::env::var(name) {
+            Ok(v) => Ok(Some(v)),
+            Err(std::env::VarError::NotPresent) => Ok(None),
+            Err(std::env::VarError::NotUnicode(v)) => Err(Error::Usage(format!(
+                "{name}={}: is not valid text",
+                crate::error::quote(&v.to_string_lossy())
+            ))),
+        }
+    };
+    if let Some(v) = var("FOSLS_MAX_ALLOC")? {
+        parse_size(&v).map_err(|problem| {
+            Error::Usage(format!(
+                "FOSLS_MAX_ALLOC={}: {problem}",
+                crate::error::quote(&v)
+            ))
+        })?;
+    }
+    let threads = match var("RAYON_NUM_THREADS")? {
+        Some(v) => Some(parse_threads(&v).map_err(|problem| {
+            Error::Usage(format!(
+                "RAYON_NUM_THREADS={}: {problem}",
+                crate::error::quote(&v)
+            ))
+        })?),
+        None => None,
+    };
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        builder = builder.num_threads(n);
+    }
+    builder.build_global().map_err(|e| {
+        Error::Usage(format!(
+            "cannot start {} worker threads ({e}){}",
+            threads.map_or_else(|| "the".to_string(), |n| n.to_string()),
+            if threads.is_some() {
+                "; lower RAYON_NUM_THREADS"
+            } else {
+                "; set RAYON_NUM_THREADS to fewer threads"
+            }
+        ))
+    })
+}
+
+/// Parses a finite number (for thresholds such as `--fail-above`).
+pub fn parse_finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(format!("\"{text}\" is not a finite number")),
+        Err(_) => Err(format!("\"{text}\" is not a number")),
+    }
 }
 
 /// A memory budget shared by the threads that decode one file.
@@ -116,8 +227,30 @@ pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 /// cap (a device such as `/dev/zero` or a growing file cannot exhaust memory). `remedy` ends
 /// the message, e.g. "set FOSLS_MAX_ALLOC to raise it".
 pub fn read_bounded(path: &Path, cap: u64, remedy: &str) -> crate::Result<Vec<u8>> {
+    read_bounded_checked(path, cap, remedy, |_| Ok(true), |_| String::new())
+}
+
+/// The windows [`read_bounded_checked`] shows its check: 4 KiB, then 64 KiB, then 1 MiB.
+pub const START_WINDOWS: [usize; 3] = [4 << 10, 64 << 10, 1 << 20];
+
+/// [`read_bounded`], with a look at the start of a large regular file before the rest is read:
+/// `check_start` is given the first 4 KiB (then 64 KiB, then 1 MiB while it answers
+/// `Ok(false)`, "undecided") and returns `Ok(true)` to read the file or `Err((place, problem))`
+/// to refuse it at once, so a large file that cannot be what is expected costs a few
+/// kilobytes of reading. Still undecided at 1 MiB, it is refused with the problem
+/// `undecided(1048576)`. Files of at most 4 KiB, and pipes and devices (of
+/// unknown length), are read whole as by [`read_bounded`]. The buffer for the file is reserved
+/// with `try_reserve`: a file that does not fit in memory is an error, not an abort.
+pub fn read_bounded_checked(
+    path: &Path,
+    cap: u64,
+    remedy: &str,
+    mut check_start: impl FnMut(&[u8]) -> Result<bool, (String, String)>,
+    undecided: impl Fn(usize) -> String,
+) -> crate::Result<Vec<u8>> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let hint = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let meta = file.metadata().map_err(|e| Error::io(path, e))?;
+    let hint = meta.len();
     let too_long = |n: u64| {
         Error::input(
             path,
@@ -128,9 +261,48 @@ pub fn read_bounded(path: &Path, cap: u64, remedy: &str) -> crate::Result<Vec<u8
     if hint > cap {
         return Err(too_long(hint));
     }
-    let mut bytes = Vec::with_capacity(hint as usize);
-    file.take(cap.saturating_add(1))
-        .read_to_end(&mut bytes)
+    let mut bytes: Vec<u8> = Vec::new();
+    // Room for `total` bytes in all.
+    let reserve = |bytes: &mut Vec<u8>, total: usize| {
+        let more = total.saturating_sub(bytes.len());
+        bytes.try_reserve_exact(more).map_err(|_| {
+            Error::input(
+                path,
+                "file",
+                format!("is {hint} bytes, more than fosls can allocate to read it"),
+            )
+        })
+    };
+    let mut file = file.take(cap.saturating_add(1));
+    if meta.file_type().is_file() && hint > START_WINDOWS[0] as u64 {
+        let mut decided = false;
+        for window in START_WINDOWS {
+            let want = window.min(hint as usize);
+            reserve(&mut bytes, want)?;
+            (&mut file)
+                .take((want - bytes.len()) as u64)
+                .read_to_end(&mut bytes)
+                .map_err(|e| Error::io(path, e))?;
+            match check_start(&bytes) {
+                Ok(true) => {
+                    decided = true;
+                    break;
+                }
+                Ok(false) if bytes.len() < want || want as u64 == hint => {
+                    // The whole file (or all there is) was shown: the parser decides.
+                    decided = true;
+                    break;
+                }
+                Ok(false) => {}
+                Err((place, problem)) => return Err(Error::input(path, place, problem)),
+            }
+        }
+        if !decided {
+            return Err(Error::input(path, "file", undecided(bytes.len())));
+        }
+    }
+    reserve(&mut bytes, hint as usize)?;
+    file.read_to_end(&mut bytes)
         .map_err(|e| Error::io(path, e))?;
     if bytes.len() as u64 > cap {
         return Err(too_long(bytes.len() as u64));
@@ -181,15 +353,31 @@ pub fn parse_timeout(text: &str) -> Result<Duration, String> {
 pub fn start_watchdog(limit: Duration, command: &'static str) {
     std::thread::spawn(move || {
         std::thread::sleep(limit);
-        // No output file may be half written when the process ends.
-        let _guard = output_lock();
-        eprintln!(
-            "error: timeout: {command} did not finish within {} s (stage: {})",
+        let message = format!(
+            "timeout: {command} did not finish within {} s (stage: {})",
             limit.as_secs_f64(),
             stage()
         );
-        std::process::exit(2);
+        match TIMEOUT_HOOK.get() {
+            // The output layer's hook removes the temporary files and exits, or returns when
+            // the outputs were already committed (the run ends with its own status).
+            Some(hook) => hook(&message),
+            None => {
+                eprintln!("error: {message}");
+                std::process::exit(2);
+            }
+        }
     });
+}
+
+/// What the watchdog calls on a timeout, set by the output layer
+/// ([`crate::write::output::install_signal_cleanup`]), so that this module needs nothing
+/// from it.
+static TIMEOUT_HOOK: std::sync::OnceLock<fn(&str)> = std::sync::OnceLock::new();
+
+/// Sets the timeout hook (first call wins).
+pub fn set_timeout_hook(hook: fn(&str)) {
+    let _ = TIMEOUT_HOOK.set(hook);
 }
 
 #[cfg(test)]
@@ -198,12 +386,40 @@ mod tests {
 
     #[test]
     fn sizes_parse_with_binary_suffixes() {
-        assert_eq!(parse_size("123"), Some(123));
-        assert_eq!(parse_size("64K"), Some(65536));
-        assert_eq!(parse_size("3m"), Some(3 * 1048576));
-        assert_eq!(parse_size(" 2G "), Some(2147483648));
-        assert_eq!(parse_size("x"), None);
-        assert_eq!(parse_size("99999999999G"), None);
+        assert_eq!(parse_size("123"), Ok(123));
+        assert_eq!(parse_size("64K"), Ok(65536));
+        assert_eq!(parse_size("3m"), Ok(3 * 1048576));
+        assert_eq!(parse_size(" 2G "), Ok(2147483648));
+        assert_eq!(parse_size("1024K"), Ok(1 << 20));
+        assert_eq!(parse_size("2GiB"), Ok(2 << 30));
+        assert_eq!(parse_size("1T"), Ok(1 << 40));
+        assert_eq!(parse_size("16 MiB"), Ok(16 << 20));
+        for bad in ["x", "", "-1", "0.5K", "abc", "0", "1e9", "+5", "12Q", "G"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+        assert_eq!(
+            parse_size("1KB").unwrap_err(),
+            "unit \"KB\" is ambiguous (1000 or 1024?); write 1K or 1KiB for powers of 1024"
+        );
+        assert_eq!(
+            parse_size("99999999999G").unwrap_err(),
+            "is larger than 2^64 - 1 bytes"
+        );
+    }
+
+    #[test]
+    fn threads_and_thresholds_parse_strictly() {
+        assert_eq!(parse_threads("4"), Ok(4));
+        for bad in ["0", "3000", "-1", "x", "", "1.5"] {
+            assert!(parse_threads(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_finite("0.05"), Ok(0.05));
+        assert_eq!(
+            parse_finite("NaN").unwrap_err(),
+            "\"NaN\" is not a finite number"
+        );
+        assert!(parse_finite("inf").is_err());
+        assert!(parse_finite("x").is_err());
     }
 
     #[test]

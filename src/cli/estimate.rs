@@ -10,7 +10,7 @@ use fosls::audit::{self, Options, Progress};
 use fosls::read::scene::Norm;
 use fosls::report;
 
-use super::{EstimateArgs, NormArg, Source, check_output, write_json};
+use super::{EstimateArgs, NormArg, Source};
 
 /// A spinner on stderr for each stage, hidden when stderr is not a terminal or with --quiet.
 struct Spinner {
@@ -47,16 +47,30 @@ fn source(s: Source) -> audit::Source {
 
 /// Runs the estimate command.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
-    for out in [args.json.as_deref(), args.output.as_deref()]
-        .into_iter()
-        .flatten()
-    {
-        if out != Path::new("-") {
-            check_output(&args.file, out)?;
-        }
+    // Every input and output path checked before the work; outputs appear only at the end
+    // (docs/robustness.md, issue 14).
+    let mut plan = fosls::write::OutputPlan::new();
+    plan.input(&args.file, "input file")?;
+    if let Ok(scene) = audit::find_scene(&args.file, args.scene.as_deref()) {
+        plan.input(&scene, "scene file")?;
     }
-    if let Some(out) = &args.output {
-        check_output(&args.file, &report::vtu::discontinuous_path(out))?;
+    let json_out = args
+        .json
+        .as_deref()
+        .map(|j| plan.output(j, "--json"))
+        .transpose()?;
+    let vtu_out = args
+        .output
+        .as_deref()
+        .map(|o| plan.output_file(o, "--output"))
+        .transpose()?;
+    let copy_out = (args.output.as_deref())
+        .map(|o| plan.optional_output(&report::vtu::discontinuous_path(o), "--output's copy"))
+        .transpose()?;
+    if let Some(x) = args.fail_above
+        && !x.is_finite()
+    {
+        return Err(fosls::Error::Usage(format!("--fail-above {x}: give a finite number")).into());
     }
     let opts = Options {
         file: args.file.clone(),
@@ -78,38 +92,43 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
     };
     let a = audit::run(&opts, &spinner)?;
 
-    if let Some(out) = &args.output {
-        audit::write_outputs(&a, out)?;
+    fosls::limits::set_stage("writing the outputs");
+    if let (Some(out), Some(id)) = (&args.output, vtu_out) {
+        let (file, copy) = audit::output_files(&a, out);
+        let placement = fosls::write::Placement::AppendedRaw;
+        plan.stage_vtu(id, &file, placement)?;
+        if let (Some(copy), Some(cid)) = (copy, copy_out) {
+            plan.stage_vtu(cid, &copy, placement)?;
+        }
     }
-    if let Some(j) = &args.json {
+    if let Some(id) = json_out {
         let r = report::json::report(&a.run, &a.estimate, &a.data.mesh);
-        write_json(j, &r)?;
+        plan.stage_json(id, &r)?;
     }
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
     if !args.quiet && !to_stdout {
-        print!(
-            "{}",
-            report::text::render(&a.run, &a.estimate, &a.data.mesh)
-        );
+        let text = report::text::render(&a.run, &a.estimate, &a.data.mesh);
+        fosls::write::stdio::write_stdout_text(&text)?;
     }
+    plan.commit()?;
 
     if let Some(x) = args.fail_above {
-        let over = a.estimate.relative.is_none_or(|r| r > x);
+        let over = a.estimate.relative.is_none_or(|r| r.is_nan() || r > x);
         if over {
             if !args.quiet {
-                eprintln!(
+                fosls::write::stdio::note_line(&format!(
                     "fosls: relative error {} exceeds --fail-above {x}",
                     a.estimate
                         .relative
                         .map_or("undefined (F < 0)".into(), |r| format!("{r:.3e}"))
-                );
+                ));
             }
             return Ok(ExitCode::from(1));
         }
     }
     if args.strict && !a.failed.is_empty() {
         if !args.quiet {
-            eprintln!("fosls: --strict: {}", a.failed.join("; "));
+            fosls::write::stdio::note_line(&format!("fosls: --strict: {}", a.failed.join("; ")));
         }
         return Ok(ExitCode::from(1));
     }

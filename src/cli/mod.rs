@@ -2,7 +2,6 @@
 
 mod estimate;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -115,7 +114,7 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "θ")]
     pub mark: Option<f64>,
     /// Exit with status 1 when the relative error exceeds X.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", value_parser = limits::parse_finite)]
     pub fail_above: Option<f64>,
     /// Exit with status 1 when an admissibility check fails.
     #[arg(long)]
@@ -152,7 +151,10 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             inline,
             ..
         } => {
-            check_output(&input, &output)?;
+            // issue 14: output paths checked first, output published at the end.
+            let mut plan = write::OutputPlan::new();
+            plan.input(&input, "input file")?;
+            let out = plan.output(&output, "the output")?;
             limits::set_stage("reading the input");
             let vtu = read::vtu::read_vtu(&input)?;
             limits::set_stage("writing the output");
@@ -161,7 +163,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             } else {
                 write::Placement::AppendedRaw
             };
-            write::write_vtu(&output, &vtu, placement)?;
+            plan.stage_vtu(out, &vtu, placement)?;
+            plan.commit()?;
             Ok(ExitCode::SUCCESS)
         }
     }
@@ -171,16 +174,16 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
 /// over an existing file.
 fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
     let target = output.map_or_else(|| file.with_extension("toml"), Path::to_path_buf);
-    if target != Path::new("-") {
-        check_output(file, &target)?;
-        if target.exists() {
-            return Err(Error::input(
-                &target,
-                "scene",
-                "exists; fosls scene never overwrites a file (remove it or pass --output)",
-            )
-            .into());
-        }
+    let mut plan = write::OutputPlan::new();
+    plan.input(file, "input file")?;
+    let id = plan.output(&target, "the scene")?;
+    if target != Path::new("-") && target.exists() {
+        return Err(Error::input(
+            &target,
+            "scene",
+            "exists; fosls scene never overwrites a file (remove it or pass --output)",
+        )
+        .into());
     }
     limits::set_stage("reading the solution");
     let vtu = read::vtu::read_vtu(file)?;
@@ -191,65 +194,39 @@ fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
         |n| n.to_string_lossy().into_owned(),
     );
     let text = fosls::starter::starter_scene(&data, &topo, &name)?;
-    if target == Path::new("-") {
-        print!("{text}");
-    } else {
-        write::write_atomic(&target, text.as_bytes())?;
-        eprintln!("fosls: wrote {}", target.display());
+    plan.stage(id, text.as_bytes())?;
+    plan.commit()?;
+    if target != Path::new("-") {
+        write::stdio::note_line(&format!("fosls: wrote {}", target.display()));
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// Refuses output paths that would overwrite the input.
-pub(crate) fn check_output(input: &Path, output: &Path) -> Result<(), Error> {
-    let same = match (input.canonicalize(), output.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same {
-        return Err(Error::Usage(format!(
-            "{}: refusing to overwrite the input file",
-            output.display()
-        )));
-    }
-    Ok(())
-}
-
-pub(crate) fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
-    let mut text = serde_json::to_string_pretty(value)?;
-    text.push('\n');
-    if path == Path::new("-") {
-        // Like files, standard output gets the whole report or nothing (see limits).
-        let _writing = limits::output_lock();
-        std::io::stdout().write_all(text.as_bytes())?;
-    } else {
-        write::write_atomic(path, text.as_bytes())?;
-    }
-    Ok(())
-}
-
 fn inspect_file(file: &Path, json: Option<&Path>, quiet: bool) -> anyhow::Result<ExitCode> {
-    if let Some(j) = json {
-        check_output(file, j)?;
-    }
+    // issue 14: output paths checked first, output published at the end.
+    let mut plan = write::OutputPlan::new();
+    plan.input(file, "input file")?;
+    let json_out = json.map(|j| plan.output(j, "--json")).transpose()?;
     limits::set_stage("reading the solution");
     let vtu = read::vtu::read_vtu(file)?;
     limits::set_stage("building the mesh");
+    read::vtu::check_coordinates(&vtu)?; // issue 14
     let data = mesh::build(vtu.clone())?;
     let topo = topology::build(&data)?;
     limits::set_stage("summarising");
     let summary = inspect::summary(&vtu, &data, &topo);
     let to_stdout = json == Some(Path::new("-"));
     if !quiet && !to_stdout {
-        print!("{}", inspect::render(&summary));
+        write::stdio::write_stdout_text(&inspect::render(&summary))?; // issue 14
     }
     // Non-finite values make the file unusable: the text summary shows where they are, the
     // exit status says so, and no JSON is written for a failed run.
     if let Some((place, problem)) = inspect::first_nonfinite(&summary) {
         return Err(Error::input(file, place, problem).into());
     }
-    if let Some(j) = json {
-        write_json(j, &summary)?;
+    if let Some(id) = json_out {
+        plan.stage_json(id, &summary)?;
     }
+    plan.commit()?; // issue 14
     Ok(ExitCode::SUCCESS)
 }

@@ -654,7 +654,12 @@ pub fn parse_ascii<T: Number>(
                 Ok(v) => T::from_i64(v),
                 Err(_) => match token.parse::<u64>() {
                     Ok(v) => T::from_u64(v),
-                    Err(_) => return Err(format!("value {i} '{token}' is not an integer")),
+                    Err(_) => {
+                        return Err(format!(
+                            "value {i} '{}' is not an integer",
+                            crate::error::shorten(token)
+                        ));
+                    }
                 },
             }
         } else {
@@ -664,7 +669,12 @@ pub fn parse_ascii<T: Number>(
                     "nan" | "-nan" => T::from_f64(f64::NAN),
                     "inf" | "infinity" => T::from_f64(f64::INFINITY),
                     "-inf" | "-infinity" => T::from_f64(f64::NEG_INFINITY),
-                    _ => return Err(format!("value {i} '{token}' is not a number")),
+                    _ => {
+                        return Err(format!(
+                            "value {i} '{}' is not a number",
+                            crate::error::shorten(token)
+                        ));
+                    }
                 },
             }
         };

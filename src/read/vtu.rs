@@ -16,7 +16,7 @@ use quick_xml::events::{BytesStart, Event};
 use rayon::prelude::*;
 
 use super::decode::{self, Compressor, Layout, Scalar};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quote, shorten};
 use crate::limits::Budget;
 
 pub use super::cell_type;
@@ -109,13 +109,193 @@ impl VtuFile {
 }
 
 /// Reads and decodes a VTU file.
+///
+/// The file's length is checked against the memory cap before anything is read, and the start
+/// of a large file is checked ([`check_start`]) before the rest is read, so a large file that
+/// is not VTK XML (zeros, an image, a tarball) is refused after reading a few kilobytes.
 pub fn read_vtu(path: &Path) -> Result<VtuFile> {
-    let bytes = crate::limits::read_bounded(
+    let bytes = crate::limits::read_bounded_checked(
         path,
         crate::limits::max_alloc(),
         "set FOSLS_MAX_ALLOC to raise it",
+        check_start,
+        |n| format!("is not a VTK XML file (no <VTKFile> element in its first {n} bytes)"),
     )?;
     parse_vtu(path, &bytes)
+}
+
+/// Decides from the first bytes of a file whether it can be VTK XML: after an optional UTF-8
+/// byte order mark, whitespace, the XML declaration, processing instructions, comments and a
+/// DOCTYPE, the first element must be `<VTKFile`. `Ok(true)`: it is; `Ok(false)`: more bytes
+/// are needed; `Err((place, problem))`: it cannot be (the root element is another one, the
+/// text is UTF-16, or some other byte stands where markup should start).
+pub fn check_start(prefix: &[u8]) -> std::result::Result<bool, (String, String)> {
+    if prefix.starts_with(b"\xff\xfe") || prefix.starts_with(b"\xfe\xff") {
+        return Err((
+            "file".into(),
+            "is UTF-16 text; fosls reads VTK XML files in UTF-8".into(),
+        ));
+    }
+    let start = if prefix.starts_with(b"\xef\xbb\xbf") {
+        3
+    } else {
+        0
+    };
+    let mut at = start;
+    loop {
+        while at < prefix.len() && prefix[at].is_ascii_whitespace() {
+            at += 1;
+        }
+        let s = &prefix[at..];
+        if s.is_empty() {
+            return Ok(false);
+        }
+        let skip =
+            |open: usize, close: &[u8]| find(&s[open..], close).map(|e| open + e + close.len());
+        let next = if s.starts_with(b"<?") {
+            skip(2, b"?>")
+        } else if s.starts_with(b"<!--") {
+            skip(4, b"-->")
+        } else if s.starts_with(b"<!DOCTYPE") {
+            // Up to the '>' that is not inside the internal subset [ … ].
+            match memchr::memchr(b'[', s) {
+                Some(open) if memchr::memchr(b'>', s).is_none_or(|gt| open < gt) => {
+                    find(&s[open..], b"]").and_then(|close| {
+                        let after = open + close;
+                        memchr::memchr(b'>', &s[after..]).map(|gt| after + gt + 1)
+                    })
+                }
+                _ => memchr::memchr(b'>', s).map(|gt| gt + 1),
+            }
+        } else if s.starts_with(b"<!") || b"<!DOCTYPE".starts_with(s) || b"<!--".starts_with(s) {
+            // Some other declaration, or one cut by the window: the parser decides.
+            return Ok(s.len() >= 9);
+        } else if s[0] == b'<' {
+            let name_end = s[1..]
+                .iter()
+                .position(|&c| c.is_ascii_whitespace() || c == b'>' || c == b'/')
+                .map(|p| p + 1);
+            let Some(name_end) = name_end else {
+                // The name runs to the end of the window.
+                return Ok(false);
+            };
+            let name = String::from_utf8_lossy(&s[1..name_end]);
+            if name == "VTKFile" {
+                return Ok(true);
+            }
+            return Err((
+                "root element".into(),
+                format!("is <{}>, not <VTKFile>: not a VTK XML file", shorten(&name)),
+            ));
+        } else {
+            let c = s[0];
+            let shown = if c.is_ascii_graphic() {
+                format!("'{}'", c as char)
+            } else {
+                format!("0x{c:02x}")
+            };
+            return Err((
+                "file".into(),
+                format!(
+                    "is not a VTK XML file (byte {at} is {shown}, where the XML declaration or \
+                     <VTKFile> should start)"
+                ),
+            ));
+        };
+        match next {
+            Some(n) => at += n,
+            None => return Ok(false),
+        }
+    }
+}
+
+/// The largest coordinate magnitude accepted by [`check_coordinates`]: lengths squared, areas
+/// and the products the functional forms of a mesh reaching past it overflow (or come close
+/// to overflowing) double precision, whose largest number is about 1.8e308.
+pub const MAX_COORDINATE: f64 = 1e100;
+
+/// The smallest nonzero extent of a mesh accepted by [`check_coordinates`]: below it, lengths
+/// squared and areas underflow.
+pub const MIN_EXTENT: f64 = 1e-100;
+
+/// Refuses coordinates whose geometry cannot be computed in double precision: a point past
+/// ±[`MAX_COORDINATE`] ("the coordinates overflow"), or a mesh whose extent is below
+/// [`MIN_EXTENT`] ("the coordinates underflow"), with one line naming the point; a mesh builder
+/// would otherwise report such a mesh as made of zero-area triangles.
+pub fn check_coordinates(file: &VtuFile) -> Result<()> {
+    let place = "Points array";
+    if let Some((k, p)) = file
+        .points
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.iter().any(|v| v.abs() > MAX_COORDINATE))
+    {
+        return Err(Error::input(
+            &file.path,
+            place,
+            format!(
+                "point {k} is ({:e}, {:e}, {:e}): the coordinates overflow (beyond ±{MAX_COORDINATE:e}, \
+                 lengths squared and areas are past what double precision holds); rescale the \
+                 mesh",
+                p[0], p[1], p[2]
+            ),
+        ));
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in &file.points {
+        for d in 0..3 {
+            lo[d] = lo[d].min(p[d]);
+            hi[d] = hi[d].max(p[d]);
+        }
+    }
+    let extent = (0..3).map(|d| hi[d] - lo[d]).fold(0.0f64, f64::max);
+    if extent > 0.0 && extent < MIN_EXTENT {
+        return Err(Error::input(
+            &file.path,
+            place,
+            format!(
+                "the mesh spans only {extent:e}: the coordinates underflow (below \
+                 {MIN_EXTENT:e}, lengths squared and areas are lost in double precision); \
+                 rescale the mesh"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses a boundary-tag array holding a value that is not a finite integer (NaN, ±∞, 2.5),
+/// as `fosls inspect` does, with one line naming the cell: `arrays` are the cell arrays on the
+/// line cells, `name` the scene's tag array (nothing to check when `None` or absent or not a
+/// scalar array), `cell_of(l)` the file's cell number of line cell `l`.
+pub fn check_tags(
+    path: &Path,
+    arrays: &[DataArray],
+    name: Option<&str>,
+    cell_of: impl Fn(usize) -> usize,
+) -> Result<()> {
+    let Some(a) = name.and_then(|n| arrays.iter().find(|a| a.name == n)) else {
+        return Ok(());
+    };
+    if a.components != 1 {
+        return Ok(());
+    }
+    match a
+        .values
+        .iter()
+        .position(|v| !v.is_finite() || v.fract() != 0.0)
+    {
+        None => Ok(()),
+        Some(l) => Err(Error::input(
+            path,
+            format!("cell array {}", quote(&a.name)),
+            format!(
+                "cell {} (a line cell) has the tag {}; boundary tags must be integers",
+                cell_of(l),
+                a.values[l]
+            ),
+        )),
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -126,6 +306,20 @@ enum Role {
     Types,
     PointData,
     CellData,
+}
+
+impl Role {
+    /// Index of the four arrays each piece has at most once (points and the three cell
+    /// arrays).
+    fn structural(self) -> Option<usize> {
+        match self {
+            Role::Points => Some(0),
+            Role::Connectivity => Some(1),
+            Role::Offsets => Some(2),
+            Role::Types => Some(3),
+            Role::PointData | Role::CellData => None,
+        }
+    }
 }
 
 #[derive(Debug)]
@@ -153,8 +347,8 @@ impl ArraySpec<'_> {
             Role::Connectivity => "Cells array \"connectivity\"".to_string(),
             Role::Offsets => "Cells array \"offsets\"".to_string(),
             Role::Types => "Cells array \"types\"".to_string(),
-            Role::PointData => format!("point array \"{}\"", self.name),
-            Role::CellData => format!("cell array \"{}\"", self.name),
+            Role::PointData => format!("point array {}", quote(&self.name)),
+            Role::CellData => format!("cell array {}", quote(&self.name)),
         };
         if pieces > 1 {
             format!("Piece {}, {what}", self.piece)
@@ -184,7 +378,10 @@ enum Tag {
 }
 
 /// A DataArray being read: its section, attributes and text segments so far.
-type OpenArray<'a> = (Tag, Vec<(String, String)>, Vec<Cow<'a, [u8]>>);
+type OpenArray<'a> = (Tag, Attrs<'a>, Vec<Cow<'a, [u8]>>);
+
+/// Attributes of one element, borrowed from the file where no normalisation was needed.
+type Attrs<'a> = Vec<(Cow<'a, str>, Cow<'a, str>)>;
 
 /// The appended-data section: its bytes (after the `_` marker) and its encoding.
 struct Appended<'a> {
@@ -194,7 +391,39 @@ struct Appended<'a> {
     offsets: Vec<usize>,
 }
 
-fn attr_map(e: &BytesStart<'_>) -> std::result::Result<Vec<(String, String)>, String> {
+/// `part` as a slice of `input` when it lies inside it (the events of a slice reader borrow
+/// from the file): attributes can then be kept without copies.
+fn within<'a>(input: &'a [u8], part: &str) -> Option<&'a str> {
+    let start = (part.as_ptr() as usize).checked_sub(input.as_ptr() as usize)?;
+    let bytes = input.get(start..start.checked_add(part.len())?)?;
+    if bytes != part.as_bytes() {
+        return None;
+    }
+    std::str::from_utf8(bytes).ok()
+}
+
+/// The attributes of `e`, borrowed from `input` where possible (a file may hold many
+/// elements: one copy per attribute was most of the cost of reading many small arrays).
+fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attrs<'a>, String> {
+    if let Some(raw) = within(input, e.attributes_raw()) {
+        let mut out = Vec::new();
+        let mut ok = true;
+        for a in quick_xml::events::attributes::Attributes::new(raw, 0) {
+            let Ok(a) = a else {
+                ok = false;
+                break;
+            };
+            let Ok(value) = a.normalized_value(quick_xml::XmlVersion::Implicit1_0) else {
+                ok = false;
+                break;
+            };
+            out.push((Cow::Borrowed(a.key.0), value));
+        }
+        if ok {
+            return Ok(out);
+        }
+        // An error: the messages (and their positions) are those of the element's own parse.
+    }
     let mut out = Vec::new();
     for a in e.attributes() {
         let a = a.map_err(|err| format!("malformed attribute ({err})"))?;
@@ -203,16 +432,16 @@ fn attr_map(e: &BytesStart<'_>) -> std::result::Result<Vec<(String, String)>, St
             .normalized_value(quick_xml::XmlVersion::Implicit1_0)
             .map_err(|err| format!("malformed attribute {key} ({err})"))?
             .into_owned();
-        out.push((key, value));
+        out.push((Cow::Owned(key), Cow::Owned(value)));
     }
     Ok(out)
 }
 
-fn get<'m>(attrs: &'m [(String, String)], key: &str) -> Option<&'m str> {
+fn get<'m>(attrs: &'m [(Cow<'_, str>, Cow<'_, str>)], key: &str) -> Option<&'m str> {
     attrs
         .iter()
         .find(|(k, _)| k == key)
-        .map(|(_, v)| v.as_str())
+        .map(|(_, v)| v.as_ref())
 }
 
 fn text_bytes(t: Cow<'_, str>) -> Cow<'_, [u8]> {
@@ -224,6 +453,45 @@ fn text_bytes(t: Cow<'_, str>) -> Cow<'_, [u8]> {
 
 fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     memchr::memmem::find(haystack, needle)
+}
+
+/// The appended-data section whose start tag `e` ends at byte `tag_end`: its encoding, and its
+/// bytes from the `_` marker to the last `</AppendedData>`.
+fn appended_section<'a>(
+    path: &Path,
+    bytes: &'a [u8],
+    e: &BytesStart<'_>,
+    tag_end: usize,
+) -> Result<Appended<'a>> {
+    let err = |problem: &str| Error::input(path, "<AppendedData>", problem);
+    let attrs = attr_map(bytes, e).map_err(|problem| err(&problem))?;
+    let base64 = match get(&attrs, "encoding") {
+        Some("base64") => true,
+        Some("raw") => false,
+        _ => {
+            return Err(err(
+                "missing or unknown encoding (expected \"raw\" or \"base64\")",
+            ));
+        }
+    };
+    let tag_end = tag_end.min(bytes.len());
+    let underscore = bytes[tag_end..]
+        .iter()
+        .position(|&c| c == b'_')
+        .map(|p| tag_end + p + 1)
+        .ok_or_else(|| err("no '_' marker before the data (truncated file?)"))?;
+    let end = memchr::memmem::rfind(bytes, b"</AppendedData>")
+        .filter(|&e| e >= underscore)
+        .ok_or_else(|| err("no closing </AppendedData> tag (truncated file?)"))?;
+    let mut data = &bytes[underscore..end];
+    if base64 {
+        data = data.trim_ascii_end();
+    }
+    Ok(Appended {
+        data,
+        base64,
+        offsets: Vec::new(),
+    })
 }
 
 /// Parses the bytes of a VTU file (see [`read_vtu`]), with the global memory cap
@@ -241,70 +509,11 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         return Err(err("file", "is empty".into()));
     }
 
-    // The XML part ends where appended raw data begins.
-    let (xml, appended) = match find(bytes, b"<AppendedData") {
-        None => (bytes, None),
-        Some(start) => {
-            let tag_end = bytes[start..]
-                .iter()
-                .position(|&c| c == b'>')
-                .map(|p| start + p)
-                .ok_or_else(|| err("<AppendedData>", "start tag is cut short".into()))?;
-            let tag = &bytes[start..tag_end];
-            let base64 = if find(tag, b"encoding=\"base64\"").is_some()
-                || find(tag, b"encoding='base64'").is_some()
-            {
-                true
-            } else if find(tag, b"encoding=\"raw\"").is_some()
-                || find(tag, b"encoding='raw'").is_some()
-            {
-                false
-            } else {
-                return Err(err(
-                    "<AppendedData>",
-                    "missing or unknown encoding (expected \"raw\" or \"base64\")".into(),
-                ));
-            };
-            let underscore = bytes[tag_end..]
-                .iter()
-                .position(|&c| c == b'_')
-                .map(|p| tag_end + p + 1)
-                .ok_or_else(|| {
-                    err(
-                        "<AppendedData>",
-                        "no '_' marker before the data (truncated file?)".into(),
-                    )
-                })?;
-            let end = memchr::memmem::rfind(bytes, b"</AppendedData>")
-                .filter(|&e| e >= underscore)
-                .ok_or_else(|| {
-                    err(
-                        "<AppendedData>",
-                        "no closing </AppendedData> tag (truncated file?)".into(),
-                    )
-                })?;
-            let mut data = &bytes[underscore..end];
-            if base64 {
-                while let Some((last, rest)) = data.split_last() {
-                    if last.is_ascii_whitespace() {
-                        data = rest;
-                    } else {
-                        break;
-                    }
-                }
-            }
-            (
-                &bytes[..start],
-                Some(Appended {
-                    data,
-                    base64,
-                    offsets: Vec::new(),
-                }),
-            )
-        }
-    };
-
-    let mut reader = quick_xml::Reader::from_reader(xml);
+    // The XML part ends at the start tag of <AppendedData>, found by the XML parser (so a
+    // comment or CDATA section that mentions it is not taken for it): its raw bytes are not
+    // XML and are never given to the parser.
+    let mut appended: Option<Appended> = None;
+    let mut reader = quick_xml::Reader::from_reader(bytes);
     let mut stack: Vec<Tag> = Vec::new();
     let mut seen_root = false;
     let mut layout = Layout {
@@ -340,12 +549,17 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
             let name = e.name();
             let name = name.as_ref();
             let parent = stack.last().copied();
+            if name == "AppendedData" && parent.is_some() {
+                let tag_end = reader.buffer_position() as usize;
+                appended = Some(appended_section(path, bytes, &e, tag_end)?);
+                break;
+            }
             let tag = match (parent, name) {
                 (None, "VTKFile") => Tag::File,
                 (None, other) => {
                     return Err(err(
                         "root element",
-                        format!("is <{}>, not <VTKFile>: not a VTK XML file", other),
+                        format!("is <{}>, not <VTKFile>: not a VTK XML file", shorten(other)),
                     ));
                 }
                 (Some(Tag::File), "UnstructuredGrid") => Tag::Grid,
@@ -357,7 +571,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                         "<VTKFile>",
                         format!(
                             "holds <{}>; fosls reads UnstructuredGrid (.vtu) files",
-                            name
+                            shorten(name)
                         ),
                     ));
                 }
@@ -371,8 +585,8 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 _ => Tag::Other,
             };
-            let attrs =
-                attr_map(&e).map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
+            let attrs = attr_map(bytes, &e)
+                .map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
             match tag {
                 Tag::File => {
                     seen_root = true;
@@ -381,7 +595,10 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                     {
                         return Err(err(
                             "<VTKFile>",
-                            format!("type is \"{t}\"; fosls reads UnstructuredGrid (.vtu) files"),
+                            format!(
+                                "type is {}; fosls reads UnstructuredGrid (.vtu) files",
+                                quote(t)
+                            ),
                         ));
                     }
                     match get(&attrs, "byte_order").unwrap_or("LittleEndian") {
@@ -393,7 +610,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                         other => {
                             return Err(err(
                                 "<VTKFile> byte_order",
-                                format!("\"{other}\" is neither LittleEndian nor BigEndian"),
+                                format!("{} is neither LittleEndian nor BigEndian", quote(other)),
                             ));
                         }
                     }
@@ -406,7 +623,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                         other => {
                             return Err(err(
                                 "<VTKFile> header_type",
-                                format!("\"{other}\" is neither UInt32 nor UInt64"),
+                                format!("{} is neither UInt32 nor UInt64", quote(other)),
                             ));
                         }
                     }
@@ -415,8 +632,9 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                         err(
                             "<VTKFile> compressor",
                             format!(
-                                "\"{c}\" is not supported (vtkZLibDataCompressor, \
-                                 vtkLZ4DataCompressor, vtkLZMADataCompressor)"
+                                "{} is not supported (vtkZLibDataCompressor, \
+                                 vtkLZ4DataCompressor, vtkLZMADataCompressor)",
+                                quote(c)
                             ),
                         )
                     })?;
@@ -433,7 +651,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                         v.trim().parse::<usize>().map_err(|_| {
                             err(
                                 &format!("Piece {} {key}", pieces.len()),
-                                format!("\"{v}\" is not a non-negative integer"),
+                                format!("{} is not a non-negative integer", quote(v)),
                             )
                         })
                     };
@@ -515,7 +733,6 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         return Err(err("<UnstructuredGrid>", "has no <Piece>".into()));
     }
 
-    let mut appended = appended;
     let mut formats: Vec<&str> = Vec::new();
     for s in &specs {
         let f = match s.source {
@@ -547,7 +764,14 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
     format.data_formats = formats.iter().map(|s| s.to_string()).collect();
     format.pieces = pieces.len();
 
-    // Every piece needs points and the three cell arrays.
+    // Every piece needs points and the three cell arrays (counted in one pass: a file may
+    // hold many pieces).
+    let mut counts = vec![[0usize; 4]; pieces.len()];
+    for s in &specs {
+        if let Some(k) = s.role.structural() {
+            counts[s.piece][k] += 1;
+        }
+    }
     for (p, piece) in pieces.iter().enumerate() {
         let place = if pieces.len() > 1 {
             format!("Piece {p}")
@@ -560,10 +784,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
             (Role::Offsets, "a Cells array \"offsets\""),
             (Role::Types, "a Cells array \"types\""),
         ] {
-            let n = specs
-                .iter()
-                .filter(|s| s.piece == p && s.role == role)
-                .count();
+            let n = role.structural().map_or(0, |k| counts[p][k]);
             let needed = match role {
                 Role::Points => piece.points > 0,
                 _ => piece.cells > 0,
@@ -598,7 +819,17 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
 
 enum Decoded {
     Float(Vec<f64>),
-    Int(Vec<i64>),
+    /// Integers, and the first value that does not fit in i64 (held as `i64::MIN`) as written
+    /// in the file, for messages: `(index, value)`.
+    Int(Vec<i64>, Option<(usize, u64)>),
+}
+
+/// Integer `v` at `index` as the file wrote it (UInt64 values past i64 are held as i64::MIN).
+fn true_value(v: i64, index: usize, big: Option<(usize, u64)>) -> String {
+    match big {
+        Some((k, t)) if k == index && v == i64::MIN => t.to_string(),
+        _ => v.to_string(),
+    }
 }
 
 /// Turns a DataArray's attributes and text into a spec; `None` for arrays fosls does not use
@@ -607,7 +838,7 @@ fn finish_array<'a>(
     path: &Path,
     piece_count: usize,
     section: Tag,
-    attrs: Vec<(String, String)>,
+    attrs: Attrs<'a>,
     texts: Vec<Cow<'a, [u8]>>,
 ) -> Result<Option<ArraySpec<'a>>> {
     let piece = piece_count.saturating_sub(1);
@@ -632,13 +863,25 @@ fn finish_array<'a>(
         component_names: Vec::new(),
         source: Source::Appended(0),
     };
-    let place = spec.place(piece_count);
-    let err = |problem: String| Error::input(path, &place, problem);
+    // The place is only built for a message (a file may hold many arrays).
+    let name_in_file = get(&attrs, "Name").unwrap_or("");
+    let err = |problem: String| {
+        let named = ArraySpec {
+            piece,
+            role,
+            name: name_in_file.to_string(),
+            scalar: Scalar::Float64,
+            components: 1,
+            component_names: Vec::new(),
+            source: Source::Appended(0),
+        };
+        Error::input(path, named.place(piece_count), problem)
+    };
     if matches!(role, Role::PointData | Role::CellData) && spec.name.is_empty() {
         return Err(err("has no Name attribute".into()));
     }
     let ty = get(&attrs, "type").ok_or_else(|| err("missing attribute type".into()))?;
-    spec.scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type \"{ty}\"")))?;
+    spec.scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type {}", quote(ty))))?;
     if let Some(c) = get(&attrs, "NumberOfComponents") {
         spec.components = c
             .trim()
@@ -647,12 +890,26 @@ fn finish_array<'a>(
             .filter(|&c| (1..=1024).contains(&c))
             .ok_or_else(|| {
                 err(format!(
-                    "NumberOfComponents \"{c}\" is not an integer in 1..=1024"
+                    "NumberOfComponents {} is not an integer in 1..=1024",
+                    quote(c)
                 ))
             })?;
     }
-    for i in 0..spec.components {
-        match get(&attrs, &format!("ComponentName{i}")) {
+    // Component names by index, in one pass over the attributes (an element may hold many).
+    let named = attrs.iter().any(|(k, _)| k.starts_with("ComponentName"));
+    let mut names: Vec<Option<&str>> = vec![None; if named { spec.components } else { 0 }];
+    for (k, v) in &attrs {
+        if let Some(i) = k
+            .strip_prefix("ComponentName")
+            .and_then(|i| i.parse::<usize>().ok().filter(|n| n.to_string() == i))
+            && i < names.len()
+            && names[i].is_none()
+        {
+            names[i] = Some(v.as_ref());
+        }
+    }
+    for n in names {
+        match n {
             Some(n) => spec.component_names.push(n.to_string()),
             None => break,
         }
@@ -674,15 +931,17 @@ fn finish_array<'a>(
         "appended" => {
             let off =
                 get(&attrs, "offset").ok_or_else(|| err("appended array without offset".into()))?;
-            Source::Appended(
-                off.trim()
-                    .parse::<usize>()
-                    .map_err(|_| err(format!("offset \"{off}\" is not a non-negative integer")))?,
-            )
+            Source::Appended(off.trim().parse::<usize>().map_err(|_| {
+                err(format!(
+                    "offset {} is not a non-negative integer",
+                    quote(off)
+                ))
+            })?)
         }
         other => {
             return Err(err(format!(
-                "format \"{other}\" is not ascii, binary or appended"
+                "format {} is not ascii, binary or appended",
+                quote(other)
             )));
         }
     };
@@ -719,7 +978,16 @@ fn decode_array(
             let values = expected.unwrap_or(usize::MAX).min(text.len() / 2 + 1);
             budget.reserve(values as u64 * 8, "the array")?;
             let out = if integer {
-                Decoded::Int(decode::parse_ascii(text, spec.scalar, expected)?)
+                let v: Vec<i64> = decode::parse_ascii(text, spec.scalar, expected)?;
+                // A value past i64 is held as i64::MIN: keep the first one as written.
+                let big = v.iter().position(|&x| x == i64::MIN).and_then(|k| {
+                    let token = std::str::from_utf8(text)
+                        .ok()?
+                        .split_ascii_whitespace()
+                        .nth(k)?;
+                    Some((k, token.parse::<u64>().ok()?))
+                });
+                Decoded::Int(v, big)
             } else {
                 Decoded::Float(decode::parse_ascii(text, spec.scalar, expected)?)
             };
@@ -738,10 +1006,10 @@ fn decode_array(
                 ));
             }
             if a.base64 {
+                // The next offset (sorted: a binary search, for files with many arrays).
                 let next = a
                     .offsets
-                    .iter()
-                    .find(|&&o| o > *off)
+                    .get(a.offsets.partition_point(|&o| o <= *off))
                     .copied()
                     .unwrap_or(a.data.len())
                     .min(a.data.len());
@@ -775,7 +1043,21 @@ fn decode_array(
     } else {
         let bytes = payload.bytes()?;
         if integer {
-            Decoded::Int(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
+            let v: Vec<i64> = decode::convert(&bytes, spec.scalar, layout.big_endian)?;
+            // UInt64 values past i64 are held as i64::MIN: keep the first one in its type.
+            let big = (spec.scalar == Scalar::UInt64)
+                .then(|| v.iter().position(|&x| x == i64::MIN))
+                .flatten()
+                .and_then(|k| {
+                    let raw: [u8; 8] = bytes.get(8 * k..8 * k + 8)?.try_into().ok()?;
+                    let t = if layout.big_endian {
+                        u64::from_be_bytes(raw)
+                    } else {
+                        u64::from_le_bytes(raw)
+                    };
+                    Some((k, t))
+                });
+            Decoded::Int(v, big)
         } else {
             Decoded::Float(decode::convert(&bytes, spec.scalar, layout.big_endian)?)
         }
@@ -790,7 +1072,7 @@ fn check_count(
 ) -> decode::DecodeResult<Decoded> {
     let n = match &out {
         Decoded::Float(v) => v.len(),
-        Decoded::Int(v) => v.len(),
+        Decoded::Int(v, _) => v.len(),
     };
     match expected {
         Some(e) if e != n => Err(format!(
@@ -832,8 +1114,21 @@ fn assemble(
         format: FileFormat::default(),
     };
     let mut decoded: Vec<Option<Decoded>> = decoded.into_iter().map(Some).collect();
+    // Arrays by piece, built in one pass (a file may hold many pieces and many arrays).
+    let mut first = vec![[usize::MAX; 4]; pieces.len()];
+    let mut data_arrays: Vec<[Vec<usize>; 2]> = vec![[Vec::new(), Vec::new()]; pieces.len()];
+    for (i, s) in specs.iter().enumerate() {
+        match s.role.structural() {
+            Some(k) if first[s.piece][k] == usize::MAX => first[s.piece][k] = i,
+            Some(_) => {}
+            None => data_arrays[s.piece][usize::from(s.role == Role::CellData)].push(i),
+        }
+    }
     let mut take = |p: usize, role: Role| -> Option<(usize, Decoded)> {
-        let i = specs.iter().position(|s| s.piece == p && s.role == role)?;
+        let i = first[p][role.structural()?];
+        if i == usize::MAX {
+            return None;
+        }
         decoded[i].take().map(|d| (i, d))
     };
     let npieces = pieces.len();
@@ -868,17 +1163,17 @@ fn assemble(
             }
         }
         if piece.cells > 0 {
-            let (oi, Decoded::Int(offsets)) =
+            let (oi, Decoded::Int(offsets, obig)) =
                 take(p, Role::Offsets).ok_or_else(|| err("Cells", "no offsets".into()))?
             else {
                 return Err(err("Cells", "offsets are not integers".into()));
             };
-            let (ci, Decoded::Int(conn)) = take(p, Role::Connectivity)
+            let (ci, Decoded::Int(conn, cbig)) = take(p, Role::Connectivity)
                 .ok_or_else(|| err("Cells", "no connectivity".into()))?
             else {
                 return Err(err("Cells", "connectivity is not integer".into()));
             };
-            let (ti, Decoded::Int(types)) =
+            let (ti, Decoded::Int(types, _)) =
                 take(p, Role::Types).ok_or_else(|| err("Cells", "no types".into()))?
             else {
                 return Err(err("Cells", "types are not integers".into()));
@@ -893,8 +1188,9 @@ fn assemble(
                     return Err(err(
                         &oplace,
                         format!(
-                            "offset {o} of cell {c} is {} (connectivity has {} entries)",
-                            if o < prev {
+                            "offset {} of cell {c} is {} (connectivity has {} entries)",
+                            true_value(o, c, obig),
+                            if o < prev && o != i64::MIN {
                                 "smaller than the one before"
                             } else {
                                 "past the end of the connectivity"
@@ -949,7 +1245,8 @@ fn assemble(
                     return Err(err(
                         &cplace,
                         format!(
-                            "entry {k} refers to point {v}, but the piece has {} points",
+                            "entry {k} refers to point {}, but the piece has {} points",
+                            true_value(v, k, cbig),
                             piece.points
                         ),
                     ));
@@ -963,10 +1260,10 @@ fn assemble(
     // Point and cell arrays: the first piece sets names and components, the others must match.
     for role in [Role::PointData, Role::CellData] {
         let mut merged: Vec<DataArray> = Vec::new();
-        for p in 0..npieces {
-            let mine: Vec<usize> = (0..specs.len())
-                .filter(|&i| specs[i].piece == p && specs[i].role == role)
-                .collect();
+        let mut by_name: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+        for (p, arrays) in data_arrays.iter_mut().enumerate() {
+            let mine = std::mem::take(&mut arrays[usize::from(role == Role::CellData)]);
+            let mut seen_here = std::collections::HashSet::new();
             if p > 0 && mine.len() != merged.len() {
                 return Err(err(
                     &format!("Piece {p}"),
@@ -987,10 +1284,11 @@ fn assemble(
                 let Some(Decoded::Float(values)) = decoded[i].take() else {
                     continue;
                 };
+                if !seen_here.insert(s.name.as_str()) {
+                    return Err(err(&s.place(npieces), "appears twice".into()));
+                }
                 if p == 0 {
-                    if merged.iter().any(|a| a.name == s.name) {
-                        return Err(err(&s.place(npieces), "appears twice".into()));
-                    }
+                    by_name.insert(s.name.as_str(), merged.len());
                     merged.push(DataArray {
                         name: s.name.clone(),
                         scalar: s.scalar,
@@ -999,7 +1297,7 @@ fn assemble(
                         values,
                     });
                 } else {
-                    let Some(a) = merged.iter_mut().find(|a| a.name == s.name) else {
+                    let Some(a) = by_name.get(s.name.as_str()).map(|&k| &mut merged[k]) else {
                         return Err(err(&s.place(npieces), "is not in piece 0".into()));
                     };
                     if a.components != s.components {

@@ -1,10 +1,23 @@
 //! VTU writer: binary, zlib-compressed, appended raw or inline base64, UInt64 headers.
 //!
-//! Files are written atomically: to a temporary name in the target folder, then renamed, so a
-//! failure never leaves a partial file and a reader never sees one (docs/design.md §8).
+//! Files are written atomically: to a temporary file in the target folder, then renamed, so a
+//! failure never leaves a partial file and a reader never sees one (docs/design.md §8). The rules for
+//! output paths (never an input, never two outputs on one file, devices and `-` written in
+//! place, nothing left behind on a timeout or a signal) are [`output`]'s; standard output and
+//! standard error that never panic are [`stdio`]'s.
+//!
+//! Array and component names are written as XML attribute values: `&`, `"`, `<`, `>` and tab,
+//! newline, carriage return are written as references; a name holding a character XML 1.0
+//! cannot represent at all (the other C0 control characters, U+FFFE, U+FFFF) is refused by
+//! [`try_to_bytes`] with one line naming the array.
+
+pub mod output;
+pub mod stdio;
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+pub use output::{OutputId, OutputPlan, Target, write_atomic};
 
 use base64::Engine;
 use rayon::prelude::*;
@@ -62,14 +75,68 @@ fn i64_bytes(v: impl Iterator<Item = i64>) -> Vec<u8> {
     v.flat_map(|x| x.to_le_bytes()).collect()
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('"', "&quot;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+/// Whether XML 1.0 can hold `c` at all (production `Char`).
+fn xml_char(c: char) -> bool {
+    matches!(c, '\t' | '\n' | '\r') || (c >= ' ' && c != '\u{fffe}' && c != '\u{ffff}')
 }
 
-/// Serialises a file to VTU bytes.
+/// `s` as an XML attribute value (double quotes): markup characters and the whitespace that
+/// attribute normalisation would turn into spaces are written as references; characters XML
+/// cannot hold are replaced by U+FFFD (refused earlier by [`try_to_bytes`]).
+fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '"' => out.push_str("&quot;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '\t' => out.push_str("&#9;"),
+            '\n' => out.push_str("&#10;"),
+            '\r' => out.push_str("&#13;"),
+            c if !xml_char(c) => out.push('\u{fffd}'),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The first name of `file` (array or component name) that XML 1.0 cannot hold, as a message.
+pub fn unwritable_name(file: &VtuFile) -> Option<String> {
+    for (kind, arrays) in [("point", &file.point_data), ("cell", &file.cell_data)] {
+        for a in arrays.iter() {
+            let names = std::iter::once(None).chain(a.component_names.iter().map(Some));
+            for component in names {
+                let n = component.unwrap_or(&a.name);
+                if let Some(c) = n.chars().find(|&c| !xml_char(c)) {
+                    let whose = match component {
+                        None => "its name".to_string(),
+                        Some(n) => format!("its component name {}", crate::error::quote(n)),
+                    };
+                    return Some(format!(
+                        "{kind} array {}: {whose} holds the control character U+{:04X}, which \
+                         XML 1.0 cannot represent (VTK and meshio would refuse the file); rename \
+                         the array",
+                        crate::error::quote(&a.name),
+                        c as u32
+                    ));
+                }
+            }
+        }
+    }
+    None
+}
+
+/// Serialises a file to VTU bytes, refusing names XML cannot hold ([`unwritable_name`]).
+pub fn try_to_bytes(file: &VtuFile, placement: Placement) -> std::result::Result<Vec<u8>, String> {
+    match unwritable_name(file) {
+        Some(problem) => Err(problem),
+        None => Ok(to_bytes(file, placement)),
+    }
+}
+
+/// Serialises a file to VTU bytes. Characters XML cannot hold in names are replaced by
+/// U+FFFD; [`try_to_bytes`] refuses them instead.
 pub fn to_bytes(file: &VtuFile, placement: Placement) -> Vec<u8> {
     // (xml attributes, raw little-endian data) per array, in document order.
     struct Item {
@@ -197,35 +264,11 @@ pub fn to_bytes(file: &VtuFile, placement: Placement) -> Vec<u8> {
     out
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same folder, then a rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .ok_or_else(|| Error::Usage(format!("{}: not a file name", path.display())))?;
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    // A --timeout waits for this: the file is renamed into place or not written at all.
-    let _writing = crate::limits::output_lock();
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    Ok(())
-}
-
 /// Writes a VTU file atomically.
 pub fn write_vtu(path: &Path, file: &VtuFile, placement: Placement) -> Result<()> {
-    write_atomic(path, &to_bytes(file, placement))
+    let bytes = try_to_bytes(file, placement)
+        .map_err(|p| Error::Usage(format!("{}: {p}", path.display())))?;
+    write_atomic(path, &bytes)
 }
 
 #[cfg(test)]
