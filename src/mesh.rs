@@ -785,10 +785,16 @@ fn merge_copies(
         let mut sum = vec![0.0; count as usize * c];
         let mut lo = vec![f64::INFINITY; count as usize * c];
         let mut hi = vec![f64::NEG_INFINITY; count as usize * c];
+        // A non-finite copy makes the merged value NaN, so that the field checks refuse it
+        // (min and max would skip a NaN silently).
+        let mut nonfinite = vec![false; count as usize * c];
         for (i, &n) in new_index.iter().enumerate() {
             let n = n as usize;
             for k in 0..c {
                 let v = a.values[i * c + k];
+                if !v.is_finite() {
+                    nonfinite[n * c + k] = true;
+                }
                 sum[n * c + k] += v;
                 lo[n * c + k] = lo[n * c + k].min(v);
                 hi[n * c + k] = hi[n * c + k].max(v);
@@ -801,7 +807,9 @@ fn merge_copies(
                 // Equal copies keep their value exactly (a mean of three equal values
                 // need not round back to it).
                 let i = n * c + k;
-                sum[i] = if lo[i] == hi[i] {
+                sum[i] = if nonfinite[i] {
+                    f64::NAN
+                } else if lo[i] == hi[i] {
                     lo[i]
                 } else {
                     sum[i] / copies[n] as f64

@@ -1,6 +1,12 @@
 //! Every tolerance and fixed numerical choice of fosls, with the reason for its value
 //! (docs/design.md §4–§5). Nothing else in the library writes a bare tolerance literal.
 
+/// Largest magnitude of any input value (field values, material constants, friction, ℓ,
+/// obstacle data, expression values), and the inverse of the smallest Young's modulus: the
+/// square or product of two such numbers (1e200) stays far from f64's overflow at 1.8e308,
+/// which is what the terms of F compute (docs/robustness.md).
+pub const MAX_MAGNITUDE: f64 = 1e100;
+
 /// Planar meshes: z may vary by this times the largest |x|, |y| (writers that store z = 0
 /// exactly, or a constant z plane, pass; a tilted mesh does not).
 pub const PLANAR_RELATIVE: f64 = 1e-12;

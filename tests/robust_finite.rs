@@ -4,11 +4,8 @@
 //! material data, scaled coordinates or fields, one NaN in one node copy of an exploded mesh)
 //! and runs `fosls estimate --json` through the real binary.
 //!
-//! The finiteness checks of the estimate itself belong to the estimator, which is being moved
-//! into a library `audit` module: the cases that still exit 0 with a null or non-finite
-//! number are `#[ignore]`d with the reason below until those checks land there
-//! (`fosls::expr::Expr::eval_finite` is the expression half of them). Run them with
-//! `cargo test --test robust_finite -- --include-ignored`.
+//! The checks live in the audit pipeline (`src/audit/finite.rs`): bounded inputs before any
+//! work, every reported number after the estimate.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -98,23 +95,17 @@ fn scale_array(f: &mut VtuFile, name: &str, s: f64) {
     }
 }
 
-const PENDING: &str = "issue 14: finite checks pending the audit refactor";
-
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn body_force_one_over_zero() {
-    let _ = PENDING;
     refused_naming(EXACT, BODY, "\"1/0\"", same, &["body_force"]);
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn traction_one_over_x_at_x_0() {
     refused_naming(EXACT, LEFT, "\"1/x\"", same, &["traction", "1/x"]);
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn body_force_sqrt_of_negative() {
     refused_naming(
         EXACT,
@@ -126,31 +117,26 @@ fn body_force_sqrt_of_negative() {
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn traction_log_x_at_x_0() {
     refused_naming(EXACT, LEFT, "\"log(x)\"", same, &["traction", "log(x)"]);
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn body_force_exp_overflow() {
     refused_naming(EXACT, BODY, "\"exp(1000*x)\"", same, &["body_force", "exp"]);
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn dirichlet_zero_over_zero() {
     refused_naming(EXACT, TOP, "\"0/0\"", same, &["displacement"]);
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn body_force_1e300() {
     refused_naming(EXACT, BODY, "1e300", same, &["body_force"]);
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn friction_1e308() {
     refused_naming(
         EXACT,
@@ -162,7 +148,6 @@ fn friction_1e308() {
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn youngs_modulus_1e_minus_300() {
     refused_naming(
         EXACT,
@@ -174,7 +159,6 @@ fn youngs_modulus_1e_minus_300() {
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn length_scale_1e300() {
     refused_naming(
         EXACT,
@@ -186,7 +170,6 @@ fn length_scale_1e300() {
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn obstacle_point_1e308() {
     refused_naming(
         EXACT,
@@ -252,7 +235,6 @@ fn coordinates_times_1e_minus_160() {
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn displacement_times_1e200() {
     refused_naming(
         EXACT,
@@ -267,7 +249,6 @@ fn displacement_times_1e200() {
 }
 
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn one_nodal_value_1e308() {
     refused_naming(
         EXACT,
@@ -295,7 +276,6 @@ fn one_nodal_value_1e308() {
 /// Defect 13: a NaN in one node copy of an exploded mesh: `inspect` refuses the file, but
 /// `estimate` merged the copies and reported a finite F.
 #[test]
-#[ignore = "issue 14: finite checks pending the audit refactor"]
 fn nan_in_one_node_copy_of_an_exploded_mesh() {
     refused_naming(
         "hertz_ngsolve_p1_vtkoutput",

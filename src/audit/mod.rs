@@ -10,6 +10,8 @@
 //! [`run`] returns an [`Audit`]; [`write_outputs`] writes the `--output` files. `main` only
 //! parses the command line, calls these, prints and maps exit codes.
 
+mod finite;
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -297,6 +299,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let boundaries = problem::classify(&data, &topo, &scene)?;
     lap("scene and fields", &mut stages);
 
+    finite::check_inputs(&data, &fields, &scene, &boundaries.edges)?;
     let ctx = problem::Context::new(&data.mesh, &topo, &scene, &boundaries.edges, norm);
     // The displacement: the file's, projected onto K_u in the energy norm when it penetrates
     // or misses the Dirichlet data at the nodes (docs/design.md §5) unless --displacement file; or
@@ -486,6 +489,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             stress_from_file: file_sigma.is_some(),
         }
     });
+    finite::check_estimate(&opts.file, &est)?;
     progress.done();
     lap("evaluate", &mut stages);
 
