@@ -19,7 +19,7 @@ use crate::read::scene::{BoundaryKind, Gap, Scene};
 use crate::tolerance::MAX_MAGNITUDE;
 
 fn too_large(v: f64) -> bool {
-    !(v.abs() <= MAX_MAGNITUDE)
+    v.is_nan() || v.abs() > MAX_MAGNITUDE
 }
 
 /// The bounded-data check before any work.
