@@ -344,6 +344,9 @@ fn drop_unused_points(file: &mut VtuFile) -> usize {
     np - kept
 }
 
+/// An array a container declares: name and component count.
+pub(crate) type Declared = (String, usize);
+
 /// Joins data sets read from separate files (the pieces of a `.pvtu`, the parts of a `.pvd`
 /// step) into one file of several pieces: points and cells concatenated, piece starts kept so
 /// that the mesh merges the points the pieces share. `arrays` (point, cell) names the arrays
@@ -353,11 +356,11 @@ fn drop_unused_points(file: &mut VtuFile) -> usize {
 pub(crate) fn concat(
     path: &Path,
     parts: Vec<(PathBuf, VtuFile)>,
-    arrays: Option<(&[(String, usize)], &[(String, usize)])>,
+    arrays: Option<(&[Declared], &[Declared])>,
     origin: &str,
 ) -> Result<VtuFile> {
     let first = &parts[0].1;
-    let declared = |list: &[DataArray]| -> Vec<(String, usize)> {
+    let declared = |list: &[DataArray]| -> Vec<Declared> {
         list.iter()
             .map(|a| (a.name.clone(), a.components))
             .collect()

@@ -189,7 +189,7 @@ impl Heavy<'_> {
         let n: usize = dims.iter().product();
         self.budget
             .reserve(n as u64 * 8, "the dataset")
-            .map_err(|m| h5err(m))?;
+            .map_err(&h5err)?;
         let scalar = match ds.dtype().and_then(|t| t.to_descriptor()) {
             Ok(TypeDescriptor::Float(s)) if s as usize == 4 => Scalar::Float32,
             Ok(TypeDescriptor::Float(_)) => Scalar::Float64,
@@ -547,11 +547,7 @@ fn attribute(h: &mut Heavy, a: &Element, grid: &str) -> Result<(String, bool, Da
         .ok_or_else(|| h.err(&place, "has no <DataItem>"))?;
     let item = h.item(data, &place)?;
     let tuples = item.dims.first().copied().unwrap_or(item.values.len());
-    let components = if tuples == 0 {
-        1
-    } else {
-        item.values.len() / tuples
-    };
+    let components = item.values.len().checked_div(tuples).unwrap_or(1);
     if tuples * components != item.values.len() || components == 0 {
         return Err(h.err(
             &place,
@@ -868,9 +864,10 @@ pub fn read_xdmf(path: &Path, step: Option<StepChoice>) -> Result<VtuFile> {
                 "XDMF {version}{}{}",
                 match chosen {
                     Some(t) => format!(
-                        " step {} of {} (t = {t})",
+                        " step {} (t = {t}; {} step{} in all)",
                         times.iter().position(|&s| s == t).unwrap_or(0),
-                        times.len()
+                        times.len(),
+                        if times.len() == 1 { "" } else { "s" }
                     ),
                     None => String::new(),
                 },
@@ -946,7 +943,9 @@ mod tests {
         assert_eq!(tags.name, "facet_tags");
         assert_eq!(tags.values, vec![0.0, 0.0, 1.0, 2.0]);
         assert!(
-            f.format.container.contains("step 1 of 2 (t = 1)"),
+            f.format
+                .container
+                .contains("step 1 (t = 1; 2 steps in all)"),
             "{}",
             f.format.container
         );
