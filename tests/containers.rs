@@ -424,6 +424,10 @@ fn legacy_vtk_ascii_and_binary_give_the_f_of_the_vtu() {
         assert!(container.starts_with("legacy VTK"), "{container}");
         assert_eq!(j["cell_arrays"][0]["name"], "region", "{how:?}");
     }
+    // An XML file named .vtk is read as the VTU it is.
+    let xml = dir.path().join("xml.vtk");
+    std::fs::copy(&vtu, &xml).unwrap();
+    assert_eq!(f_total(&xml, &args), reference);
 }
 
 #[test]

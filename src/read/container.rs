@@ -61,19 +61,26 @@ impl Container {
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
+        let head = || {
+            let mut head = vec![0u8; 4096];
+            let n = std::fs::File::open(path)
+                .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+                .unwrap_or(0);
+            head.truncate(n);
+            head
+        };
         match ext.as_deref() {
-            Some("vtu") => return Container::Vtu,
-            Some("pvtu") => return Container::Pvtu,
-            Some("pvd") => return Container::Pvd,
-            Some("vtk") => return Container::Legacy,
-            Some("xdmf" | "xmf") => return Container::Xdmf,
-            _ => {}
+            Some("vtu") => Container::Vtu,
+            Some("pvtu") => Container::Pvtu,
+            Some("pvd") => Container::Pvd,
+            // Some writers give XML VTK files the legacy extension.
+            Some("vtk") => match head() {
+                h if h.trim_ascii_start().starts_with(b"<") => Container::sniff(&h),
+                _ => Container::Legacy,
+            },
+            Some("xdmf" | "xmf") => Container::Xdmf,
+            _ => Container::sniff(&head()),
         }
-        let mut head = [0u8; 4096];
-        let n = std::fs::File::open(path)
-            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-            .unwrap_or(0);
-        Container::sniff(&head[..n])
     }
 
     /// The container of a file from its first bytes.
