@@ -137,7 +137,7 @@ pub fn read_solution(path: &Path, options: &ReadOptions) -> Result<VtuFile> {
 pub(crate) fn read_dataset(path: &Path, container: Container, budget: &Budget) -> Result<VtuFile> {
     match container {
         Container::Vtu => {
-            let bytes = read_bytes(path)?;
+            let bytes = read_vtu_bytes(path)?;
             let mut file = vtu::parse_vtu_with(path, &bytes, budget)?;
             let notes = strip_bookkeeping(&mut file).notes();
             file.format.container = describe("VTU", &notes);
@@ -170,6 +170,18 @@ pub(crate) fn describe(kind: &str, notes: &[String]) -> String {
     } else {
         format!("{kind} ({})", notes.join("; "))
     }
+}
+
+/// The bytes of a VTU file, within the global memory cap, its start checked before the rest is
+/// read (as [`vtu::read_vtu`] does).
+pub(crate) fn read_vtu_bytes(path: &Path) -> Result<Vec<u8>> {
+    crate::limits::read_bounded_checked(
+        path,
+        crate::limits::max_alloc(),
+        "set FOSLS_MAX_ALLOC to raise it",
+        vtu::check_start,
+        |n| format!("is not a VTK XML file (no <VTKFile> element in its first {n} bytes)"),
+    )
 }
 
 /// The bytes of `path`, within the global memory cap.

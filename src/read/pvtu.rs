@@ -108,7 +108,7 @@ pub fn read_pvtu(path: &Path, budget: &Budget) -> Result<VtuFile> {
                 format!("{} does not exist (missing piece)", file.display()),
             ));
         }
-        let piece_bytes = container::read_bytes(&file)?;
+        let piece_bytes = container::read_vtu_bytes(&file)?;
         let mut f = vtu::parse_vtu_with(&file, &piece_bytes, budget)?;
         stripped.add(container::strip_bookkeeping(&mut f));
         parts.push((file, f));
