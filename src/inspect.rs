@@ -200,6 +200,9 @@ pub fn render(s: &Summary) -> String {
         f.pieces,
         f.points_type
     );
+    if !f.container.is_empty() {
+        let _ = writeln!(o, "  container   {}", f.container);
+    }
     let _ = writeln!(
         o,
         "  points      {} in file, {} in the mesh",

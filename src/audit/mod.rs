@@ -93,6 +93,8 @@ pub struct Options {
     pub degree: Option<usize>,
     /// Dörfler parameter θ.
     pub mark: Option<f64>,
+    /// The time step of a `.pvd` or XDMF collection (default: the last).
+    pub step: Option<read::container::StepChoice>,
 }
 
 impl Options {
@@ -272,7 +274,10 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     };
 
     progress.stage("reading the solution");
-    let vtu = read::vtu::read_vtu(&opts.file)?;
+    let vtu = read::container::read_solution(
+        &opts.file,
+        &read::container::ReadOptions { step: opts.step },
+    )?;
     read::vtu::check_coordinates(&vtu)?;
     let data = mesh::build(vtu)?;
     let topo = topology::build(&data)?;

@@ -84,6 +84,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         displacement: source(args.displacement),
         degree: args.degree,
         mark: args.mark,
+        step: super::step_choice(args.step, args.time),
     };
     opts.validate()?;
     let spinner = Spinner {

@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use clap::{Parser, Subcommand};
 
+use fosls::read::container::StepChoice;
 use fosls::{Error, inspect, limits, mesh, read, topology, write};
 
 /// Audit finite element solutions of elastic contact problems with the FOSLS functional.
@@ -22,8 +23,14 @@ pub struct Cli {
 pub enum Command {
     /// Show what a VTU file holds: cells, arrays and their ranges, boundary tags, geometry.
     Inspect {
-        /// The VTU file.
+        /// The solution (.vtu, .pvtu, .pvd, legacy .vtk, .xdmf).
         file: PathBuf,
+        /// Time step of a .pvd or XDMF collection, by index (default: the last).
+        #[arg(long, value_name = "N", conflicts_with = "time")]
+        step: Option<usize>,
+        /// Time step of a .pvd or XDMF collection: the one closest to this time.
+        #[arg(long, value_name = "T")]
+        time: Option<f64>,
         /// Also write the summary as JSON to this file (`-` for standard output).
         #[arg(long, value_name = "FILE")]
         json: Option<PathBuf>,
@@ -87,8 +94,14 @@ pub enum NormArg {
 
 #[derive(Debug, clap::Args)]
 pub struct EstimateArgs {
-    /// The solution (VTU).
+    /// The solution (.vtu, .pvtu, .pvd, legacy .vtk, .xdmf).
     pub file: PathBuf,
+    /// Time step of a .pvd or XDMF collection, by index (default: the last).
+    #[arg(long, value_name = "N", conflicts_with = "time")]
+    pub step: Option<usize>,
+    /// Time step of a .pvd or XDMF collection: the one closest to this time.
+    #[arg(long, value_name = "T")]
+    pub time: Option<f64>,
     /// The scene (TOML); default: `<file stem>.toml` beside the file, else `scene.toml` there.
     #[arg(long, value_name = "FILE")]
     pub scene: Option<PathBuf>,
@@ -141,8 +154,13 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     }
     match cli.command {
         Command::Inspect {
-            file, json, quiet, ..
-        } => inspect_file(&file, json.as_deref(), quiet),
+            file,
+            step,
+            time,
+            json,
+            quiet,
+            ..
+        } => inspect_file(&file, step_choice(step, time), json.as_deref(), quiet),
         Command::Estimate(args) => estimate::run(&args),
         Command::Scene { file, output, .. } => scene_file(&file, output.as_deref()),
         Command::Convert {
@@ -156,7 +174,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             plan.input(&input, "input file")?;
             let out = plan.output(&output, "the output")?;
             limits::set_stage("reading the input");
-            let vtu = read::vtu::read_vtu(&input)?;
+            let vtu = read::container::read_solution(&input, &Default::default())?;
             limits::set_stage("writing the output");
             let placement = if inline {
                 write::Placement::Inline
@@ -186,7 +204,7 @@ fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
         .into());
     }
     limits::set_stage("reading the solution");
-    let vtu = read::vtu::read_vtu(file)?;
+    let vtu = read::container::read_solution(file, &Default::default())?;
     let data = mesh::build(vtu)?;
     let topo = topology::build(&data)?;
     let name = file.file_name().map_or_else(
@@ -202,13 +220,23 @@ fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn inspect_file(file: &Path, json: Option<&Path>, quiet: bool) -> anyhow::Result<ExitCode> {
+/// `--step N` or `--time T` (clap makes them exclusive).
+pub(crate) fn step_choice(step: Option<usize>, time: Option<f64>) -> Option<StepChoice> {
+    step.map(StepChoice::Index).or(time.map(StepChoice::Time))
+}
+
+fn inspect_file(
+    file: &Path,
+    step: Option<StepChoice>,
+    json: Option<&Path>,
+    quiet: bool,
+) -> anyhow::Result<ExitCode> {
     // issue 14: output paths checked first, output published at the end.
     let mut plan = write::OutputPlan::new();
     plan.input(file, "input file")?;
     let json_out = json.map(|j| plan.output(j, "--json")).transpose()?;
     limits::set_stage("reading the solution");
-    let vtu = read::vtu::read_vtu(file)?;
+    let vtu = read::container::read_solution(file, &read::container::ReadOptions { step })?;
     limits::set_stage("building the mesh");
     read::vtu::check_coordinates(&vtu)?; // issue 14
     let data = mesh::build(vtu.clone())?;

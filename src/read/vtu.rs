@@ -53,6 +53,9 @@ pub struct FileFormat {
     pub pieces: usize,
     /// Type of the point coordinates in the file.
     pub points_type: String,
+    /// The container read and what was done to it ("VTU", "PVD step 0 of 1 (t = 0) → PVTU
+    /// of 2 pieces (…)", "legacy VTK 5.1 BINARY"); set by [`super::container`].
+    pub container: String,
 }
 
 /// A VTU file as written: points, VTK cells, point and cell arrays (pieces merged).
