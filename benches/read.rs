@@ -1,15 +1,31 @@
-//! Read benchmark (a program, not a timed test): `cargo bench --bench read -- FILE.vtu`.
+//! Read benchmark (a program, not a timed test):
+//!
+//! ```text
+//! cargo bench --bench read                          # P2 and Q2 files of 10k, 100k, 1M cells
+//! cargo bench --bench read -- --sizes 1000000       # both families, chosen sizes
+//! cargo bench --bench read -- FILE.vtu [FILE.vtu …] # given files
+//! cargo bench --bench read -- --no-meshio …         # skip the meshio.read runs
+//! ```
 //!
 //! Times each stage of reading a VTU file (bytes from disk, XML + decode, mesh build,
 //! topology) over several runs, reports the best run and the peak resident memory against the
 //! decoded data size, and times `meshio.read` on the same file in the same run when the
 //! reference environment is present (`reference/.venv`), so that a ratio can be quoted.
+//!
+//! Each file is read in a fresh child process (this binary re-executed with
+//! `FOSLS_READ_CASE=FILE`), so that the peak memory (VmHWM) is the file's own. The default
+//! files are `bench-data/p2_tri_N.vtu` and `bench-data/q2_quad_N.vtu`
+//! (`reference/encodings/make_bench.py [--family q2]`). At the end a table gives the times per
+//! million points of the file and, for a Q2 and a P2 file of the same cell count, the ratio
+//! Q2 / P2 of the time per point (issue 11: ≤ 1.3). `RAYON_NUM_THREADS` sets the threads.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 use fosls::{mesh, read, topology};
+
+const CASE_ENV: &str = "FOSLS_READ_CASE";
 
 fn peak_rss_mib() -> f64 {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
@@ -21,35 +37,21 @@ fn peak_rss_mib() -> f64 {
         .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a != "--bench")
-        .collect();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let file = args
-        .first()
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join("bench-data/p2_tri_1000000.vtu"));
-    if !file.exists() {
-        eprintln!(
-            "{} is missing; generate it with\n  reference/.venv/bin/python reference/encodings/make_bench.py --cells 1000000 --out {}",
-            file.display(),
-            file.display()
-        );
-        std::process::exit(2);
-    }
-    let runs = 3;
+/// Reads `file` `runs` times in this process, prints the stages and one JSON line.
+fn case(file: &Path, runs: usize) {
     let mut best = [f64::INFINITY; 5];
     let mut decoded_bytes = 0usize;
     let mut cells = 0usize;
+    let mut points = 0usize;
+    let mut family = String::new();
     for _ in 0..runs {
         let t0 = Instant::now();
-        let bytes = std::fs::read(&file).unwrap();
+        let bytes = std::fs::read(file).unwrap();
         let t1 = Instant::now();
-        let vtu = read::vtu::parse_vtu(&file, &bytes).unwrap();
+        let vtu = read::vtu::parse_vtu(file, &bytes).unwrap();
         let t2 = Instant::now();
         drop(bytes);
+        points = vtu.points.len();
         decoded_bytes = vtu.points.len() * 24
             + vtu.connectivity.len() * 4
             + vtu.offsets.len() * 8
@@ -66,6 +68,13 @@ fn main() {
         let topo = topology::build(&data).unwrap();
         let t5 = Instant::now();
         cells = data.mesh.cells.len();
+        family = data
+            .mesh
+            .families()
+            .iter()
+            .map(|f| f.name().split(' ').next().unwrap_or("?"))
+            .collect::<Vec<_>>()
+            .join("+");
         std::hint::black_box(&topo);
         let times = [
             (t1 - t0).as_secs_f64(),
@@ -79,9 +88,10 @@ fn main() {
         }
     }
     let peak = peak_rss_mib();
-    let size = std::fs::metadata(&file).unwrap().len() as f64 / (1 << 20) as f64;
+    let size = std::fs::metadata(file).unwrap().len() as f64 / (1 << 20) as f64;
+    let mpts = points as f64 / 1e6;
     println!(
-        "file            {} ({size:.1} MiB, {cells} triangles)",
+        "file            {} ({size:.1} MiB, {cells} {family} cells, {points} points)",
         file.display()
     );
     println!("threads         {}", rayon::current_num_threads());
@@ -93,26 +103,180 @@ fn main() {
     );
     println!("mesh build      {:.3} s", best[2]);
     println!("topology        {:.3} s", best[3]);
+    let all = best[4] + best[2] + best[3];
+    println!(
+        "per Mpoint      read {:.3} s, mesh + topology {:.3} s, all {:.3} s",
+        best[4] / mpts,
+        (best[2] + best[3]) / mpts,
+        all / mpts
+    );
     let decoded = decoded_bytes as f64 / (1 << 20) as f64;
     println!(
         "peak memory     {peak:.0} MiB = {:.2} × decoded data ({decoded:.0} MiB)",
         peak / decoded
     );
+    println!(
+        "{}",
+        serde_json::json!({
+            "file": file.display().to_string(),
+            "family": family,
+            "cells": cells,
+            "points": points,
+            "size_mib": size,
+            "threads": rayon::current_num_threads(),
+            "read_bytes": best[0],
+            "parse_decode": best[1],
+            "read": best[4],
+            "mesh": best[2],
+            "topology": best[3],
+            "peak_mib": peak,
+            "decoded_mib": decoded,
+        })
+    );
+}
+
+fn meshio_seconds(root: &Path, file: &Path) -> Option<f64> {
     let python = root.join("reference/.venv/bin/python");
     let script = root.join("reference/encodings/time_meshio.py");
-    if python.exists() && script.exists() {
-        let out = Command::new(&python)
-            .arg(&script)
-            .arg(&file)
-            .output()
-            .unwrap();
-        let line = String::from_utf8_lossy(&out.stdout);
-        println!("meshio.read     {}", line.trim());
-        if let Some(t) = serde_json::from_str::<serde_json::Value>(line.trim())
-            .ok()
-            .and_then(|v| v["seconds_best"].as_f64())
-        {
-            println!("ratio           meshio / fosls read = {:.1}×", t / best[4]);
+    if !python.exists() || !script.exists() {
+        return None;
+    }
+    let out = Command::new(&python)
+        .arg(&script)
+        .arg(file)
+        .output()
+        .unwrap();
+    let line = String::from_utf8_lossy(&out.stdout);
+    println!("meshio.read     {}", line.trim());
+    serde_json::from_str::<serde_json::Value>(line.trim())
+        .ok()
+        .and_then(|v| v["seconds_best"].as_f64())
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let runs = 3;
+    if let Ok(file) = std::env::var(CASE_ENV) {
+        case(Path::new(&file), runs);
+        return;
+    }
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
+    let mut files: Vec<PathBuf> = Vec::new();
+    let mut sizes: Vec<usize> = Vec::new();
+    let mut meshio = true;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--no-meshio" => meshio = false,
+            "--sizes" => {
+                let list = it.next().expect("--sizes N,N,…");
+                sizes.extend(list.split(',').map(|s| s.trim().parse::<usize>().unwrap()));
+            }
+            _ => files.push(PathBuf::from(a)),
         }
+    }
+    if files.is_empty() && sizes.is_empty() {
+        sizes = vec![10_000, 100_000, 1_000_000];
+    }
+    for n in &sizes {
+        files.push(root.join(format!("bench-data/p2_tri_{n}.vtu")));
+        files.push(root.join(format!("bench-data/q2_quad_{n}.vtu")));
+    }
+    let missing: Vec<&PathBuf> = files.iter().filter(|f| !f.exists()).collect();
+    if !missing.is_empty() {
+        eprintln!("missing benchmark files; generate them with");
+        for f in missing {
+            let name = f.file_name().unwrap().to_string_lossy();
+            let family = if name.starts_with("q2") {
+                "--family q2 "
+            } else {
+                ""
+            };
+            let n: String = name
+                .chars()
+                .filter(|c| c.is_ascii_digit())
+                .skip(1)
+                .collect();
+            eprintln!(
+                "  reference/.venv/bin/python reference/encodings/make_bench.py {family}--cells {n} --out {}",
+                f.display()
+            );
+        }
+        std::process::exit(2);
+    }
+    let exe = std::env::current_exe().unwrap();
+    let mut rows: Vec<(serde_json::Value, Option<f64>)> = Vec::new();
+    for file in &files {
+        let out = Command::new(&exe).env(CASE_ENV, file).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        if !out.status.success() {
+            eprintln!(
+                "{}: {}",
+                file.display(),
+                String::from_utf8_lossy(&out.stderr)
+            );
+            std::process::exit(1);
+        }
+        let mut json = serde_json::Value::Null;
+        for line in text.lines() {
+            if line.starts_with('{') {
+                json = serde_json::from_str(line).unwrap();
+            } else {
+                println!("{line}");
+            }
+        }
+        let m = if meshio {
+            meshio_seconds(root, file)
+        } else {
+            None
+        };
+        if let Some(t) = m {
+            println!(
+                "ratio           meshio / fosls read = {:.1}×",
+                t / json["read"].as_f64().unwrap()
+            );
+        }
+        println!();
+        rows.push((json, m));
+    }
+    let f = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    let per_point = |v: &serde_json::Value| {
+        (f(v, "read") + f(v, "mesh") + f(v, "topology")) / (f(v, "points") / 1e6)
+    };
+    println!(
+        "| family | cells | points | file MiB | threads | read s | mesh s | topology s | peak MiB | s / Mpoint (read) | s / Mpoint (read+mesh+topology) | Q2/P2 per point | meshio.read s | meshio / fosls read |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (v, m) in &rows {
+        let pts = f(v, "points") / 1e6;
+        let ratio = (v["family"] == "Q2")
+            .then(|| {
+                rows.iter().find(|(w, _)| {
+                    w["family"] == "P2" && w["cells"] == v["cells"] && w["threads"] == v["threads"]
+                })
+            })
+            .flatten()
+            .map_or("—".to_string(), |(w, _)| {
+                format!("{:.2}", per_point(v) / per_point(w))
+            });
+        println!(
+            "| {} | {} | {} | {:.1} | {} | {:.3} | {:.3} | {:.3} | {:.0} | {:.3} | {:.3} | {ratio} | {} | {} |",
+            v["family"].as_str().unwrap_or("?"),
+            v["cells"],
+            v["points"],
+            f(v, "size_mib"),
+            v["threads"],
+            f(v, "read"),
+            f(v, "mesh"),
+            f(v, "topology"),
+            f(v, "peak_mib"),
+            f(v, "read") / pts,
+            per_point(v),
+            m.map_or("—".into(), |t| format!("{t:.3}")),
+            m.map_or("—".into(), |t| format!("{:.1}×", t / f(v, "read"))),
+        );
     }
 }

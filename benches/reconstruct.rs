@@ -48,7 +48,7 @@ use fosls::estimate::{self, StressField};
 use fosls::problem::Condition;
 use fosls::read::scene::{Norm, Scene, parse_scene};
 use fosls::read::vtu::VtuFile;
-use fosls::reconstruct::stress::{self, Input};
+use fosls::reconstruct::stress;
 use fosls::{mesh, problem, topology};
 use serde_json::{Value, json};
 
@@ -268,7 +268,7 @@ fn child(spec: &str) {
     let fields = problem::select_fields(&data, &scene).unwrap();
     let bounds = problem::classify(&data, &topo, &scene).unwrap();
     let setup = t_setup.elapsed().as_secs_f64();
-    let length_scale = estimate::diameter(&data.mesh.points) / std::f64::consts::PI;
+    let ctx = problem::Context::new(&data.mesh, &topo, &scene, &bounds.edges, Norm::Energy);
     let base_rss = status_mib("VmRSS:");
     let base_hwm = status_mib("VmHWM:");
 
@@ -278,16 +278,11 @@ fn child(spec: &str) {
     for _ in 0..repeat {
         drop(result.take());
         let t0 = Instant::now();
-        let r = stress::reconstruct(&Input {
-            mesh: &data.mesh,
-            topo: &topo,
-            scene: &scene,
-            u: fields.displacement.as_deref().expect("a displacement"),
-            edges: &bounds.edges,
-            norm: Norm::Energy,
-            length_scale,
+        let r = stress::reconstruct(
+            &ctx,
+            fields.displacement.as_deref().expect("a displacement"),
             order,
-        })
+        )
         .unwrap();
         let dt = t0.elapsed().as_secs_f64();
         times.push(dt);
@@ -296,15 +291,12 @@ fn child(spec: &str) {
     }
     let r = result.unwrap();
     let t_est = Instant::now();
-    let est = estimate::run(&estimate::Input {
-        mesh: &data.mesh,
-        scene: &scene,
-        u: fields.displacement.as_deref().expect("a displacement"),
-        sigma: StressField::Rt(&r.stress),
-        edges: &bounds.edges,
-        norm: Norm::Energy,
-        symmetric_stress: false,
-    });
+    let est = estimate::run(
+        &ctx,
+        fields.displacement.as_deref().expect("a displacement"),
+        StressField::Rt(&r.stress),
+        false,
+    );
     let estimate_time = t_est.elapsed().as_secs_f64();
     let peak = status_mib("VmHWM:");
 
