@@ -7,7 +7,7 @@
 //! 4. estimate: the functional, admissibility, the contact zone (§3, §5);
 //! 5. report data: notes, stages, boundaries, marking ([`crate::report::Run`]).
 //!
-//! [`run`] returns an [`Audit`]; [`write_outputs`] writes the `--output` files. `main` only
+//! [`run`] returns an [`Audit`]; [`output_files`] builds the `--output` files. `main` only
 //! parses the command line, calls these, prints and maps exit codes.
 
 mod finite;

@@ -8,7 +8,7 @@
 //! counts from one: its lowest order is `ElementTriRT1` (`ElementTriRT0` is an alias of it).
 //!
 //! **Reference triangle** T̂ = conv{(0,0), (1,0), (0,1)}. Local edge e runs from vertex e to
-//! vertex (e + 1) mod 3 ([`super::edge::EDGE_NODES`]), ξ(s) = [`edge_reference_point`]`(e, s)`,
+//! vertex (e + 1) mod 3 ([`crate::geometry::edge::EDGE_NODES`]), ξ(s) = [`edge_reference_point`]`(e, s)`,
 //! s ∈ [0, 1]. Its scaled outward normal ν̂_e = n̂_e |dξ/ds| = (t̂_y, −t̂_x) with t̂ = dξ/ds is
 //! [`REFERENCE_FLUX_NORMALS`]: (0, −1), (1, 1), (−1, 0).
 //!

@@ -3,7 +3,7 @@
 //!
 //! An edge with nodes x_j (2 nodes, or 3 with the mid node last, VTK line order) is the curve
 //! x(s) = Σ_j x_j ψ_j(s), s ∈ [0, 1], with the line shape functions ψ_j of
-//! [`super::lagrange`]. Its tangent is x'(s) = Σ_j x_j ψ_j'(s), its length element |x'(s)|,
+//! [`super::triangle`]. Its tangent is x'(s) = Σ_j x_j ψ_j'(s), its length element |x'(s)|,
 //! so ∫_E f dσ = ∫_0^1 f(x(s)) |x'(s)| ds.
 //!
 //! Normal convention: the local edges of a counter-clockwise cell, traversed in their local

@@ -1,7 +1,7 @@
 //! The map from the reference triangle to a physical cell, straight (3 nodes) or curved
 //! (6 nodes, isoparametric P2).
 //!
-//! With node coordinates x_i and the Lagrange shape functions φ_i of [`super::lagrange`]:
+//! With node coordinates x_i and the Lagrange shape functions φ_i of [`super::triangle`]:
 //!
 //! - position x(ξ) = Σ_i x_i φ_i(ξ),
 //! - Jacobian J(ξ) = ∂x/∂ξ = Σ_i x_i ⊗ ∇̂φ_i(ξ), i.e. J_{ab} = ∂x_a/∂ξ_b,

@@ -52,7 +52,7 @@ pub enum Stress {
         /// The layout used, e.g. `xx,yy,zz,xy`.
         layout: String,
     },
-    /// One tensor per triangle ([`crate::mesh::Mesh::triangles`] order): piecewise constant,
+    /// One tensor per triangle ([`crate::mesh::Mesh::cells`] order): piecewise constant,
     /// not H(div)-conforming (docs/design.md §4: reconstruct).
     Cell {
         values: Vec<[f64; 4]>,

@@ -7,7 +7,7 @@
 //! the first `[[boundary]]` that selects it, or [`Condition::Free`] (traction-free, docs/design.md
 //! §7), together with the owning cell and the local edge index that orients it.
 //!
-//! Every refusal is one [`Error::Input`] line naming the file it is about: the solution file
+//! Every refusal is one [`crate::Error::Input`] line naming the file it is about: the solution file
 //! for what its arrays hold, the scene file for what a scene key asks and the file cannot give.
 //! Findings that are not errors (a dropped z component, a non-symmetric stress, a tagged line
 //! cell on an interior edge, overlapping selectors) are returned as `notes` for the report.

@@ -51,7 +51,7 @@ pub struct SolveInfo {
     /// stationarity |Kx − b + λ| on all unknowns (scaled by max |b|).
     pub kkt_residual: f64,
     pub converged: bool,
-    /// Estimated condition number of the last system, Jacobi-scaled ([`super::condition`]).
+    /// Estimated condition number of the last system, Jacobi-scaled ([`condition`]).
     pub condition_estimate: f64,
 }
 
