@@ -398,8 +398,9 @@ fn options(rng: &mut Rng) -> Vec<String> {
 fn may_be_null(path: &str) -> bool {
     matches!(
         path,
-        "eta" | "relative" | "displacement.projection_distance"
-    ) || (path.starts_with("admissibility.") && (path.ends_with("_at") || path.ends_with("_cell")))
+        "eta" | "relative" | "displacement.projection_distance" | "admissibility_file"
+    ) || ((path.starts_with("admissibility.") || path.starts_with("admissibility_file."))
+        && (path.ends_with("_at") || path.ends_with("_cell")))
         || path == "bound.value"
 }
 
