@@ -121,6 +121,28 @@ fn with_fields(pts: Vec<[f64; 3]>, c: &[(u8, Vec<u32>)]) -> VtuFile {
     f
 }
 
+/// CPU time of the whole process so far, all threads, those that ended included
+/// (`clock_gettime(CLOCK_PROCESS_CPUTIME_ID)`): unlike the wall time it does not grow while the
+/// process waits for a core, so it is the figure to compare on a shared machine (at 1 thread it
+/// equals the wall time of a quiet machine; at 2 threads it also counts rayon's idle spinning).
+fn cpu() -> f64 {
+    #[repr(C)]
+    struct Timespec {
+        sec: i64,
+        nsec: i64,
+    }
+    unsafe extern "C" {
+        fn clock_gettime(clock: i32, ts: *mut Timespec) -> i32;
+    }
+    const CLOCK_PROCESS_CPUTIME_ID: i32 = 2;
+    let mut ts = Timespec { sec: 0, nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec (two 64-bit fields on x86_64/aarch64 Linux).
+    if unsafe { clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &mut ts) } != 0 {
+        return f64::NAN;
+    }
+    ts.sec as f64 + ts.nsec as f64 * 1e-9
+}
+
 fn peak_rss_mib() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .unwrap_or_default()
@@ -174,31 +196,36 @@ fn case(spec: &str) {
             .build()
             .unwrap();
         let mut best = [f64::INFINITY; 6];
+        let mut best_cpu = [f64::INFINITY; 6];
         let mut cells = 0;
         let mut points = 0;
         let mut total = 0.0;
         for _ in 0..3 {
             pool.install(|| {
                 let t0 = Instant::now();
-                let (file, tm) = match &source {
-                    Source::Memory(f) => ((**f).clone(), t0),
+                let c0 = cpu();
+                let (file, (tm, cm)) = match &source {
+                    Source::Memory(f) => ((**f).clone(), (t0, c0)),
                     Source::File(p) => {
                         let bytes = std::fs::read(p).unwrap();
                         let f = read::vtu::parse_vtu(p, &bytes).unwrap();
-                        (f, Instant::now())
+                        (f, (Instant::now(), cpu()))
                     }
                 };
                 points = file.points.len();
                 let data = mesh::build(file).unwrap();
                 let t1 = Instant::now();
+                let c1 = cpu();
                 let topo = topology::build(&data).unwrap();
                 let t2 = Instant::now();
+                let c2 = cpu();
                 let fields = problem::select_fields(&data, &scene).unwrap();
                 let bounds = problem::classify(&data, &topo, &scene).unwrap();
                 let problem::Stress::Nodal { values, .. } = &fields.stress else {
                     panic!("no nodal stress");
                 };
                 let t3 = Instant::now();
+                let c3 = cpu();
                 let ctx = problem::Context::new(
                     &data.mesh,
                     &topo,
@@ -207,6 +234,7 @@ fn case(spec: &str) {
                     scene.effective_norm(),
                 );
                 let tc = Instant::now();
+                let cc = cpu();
                 let est = estimate::run(
                     &ctx,
                     fields.displacement.as_deref().expect("a displacement"),
@@ -214,11 +242,16 @@ fn case(spec: &str) {
                     true,
                 );
                 let t4 = Instant::now();
+                let c4 = cpu();
                 cells = data.mesh.cells.len();
                 total = est.functional.total;
                 let times = [tm - t0, t1 - tm, t2 - t1, t3 - t2, t4 - t3, tc - t3];
                 for (b, t) in best.iter_mut().zip(times) {
                     *b = b.min(t.as_secs_f64());
+                }
+                let cpus = [cm - c0, c1 - cm, c2 - c1, c3 - c2, c4 - c3, cc - c3];
+                for (b, t) in best_cpu.iter_mut().zip(cpus) {
+                    *b = b.min(t);
                 }
             });
         }
@@ -229,6 +262,8 @@ fn case(spec: &str) {
                 "cells": cells, "points": points, "threads": threads,
                 "read": best[0], "mesh": best[1], "topology": best[2],
                 "fields": best[3], "evaluate": best[4], "context": best[5], "F": total,
+                "cpu": {"read": best_cpu[0], "mesh": best_cpu[1], "topology": best_cpu[2],
+                        "fields": best_cpu[3], "evaluate": best_cpu[4], "context": best_cpu[5]},
                 "peak_mib": peak_rss_mib(),
             })
         );
@@ -306,6 +341,16 @@ fn main() {
                 f("context"),
                 f("peak_mib"),
                 f("F"),
+            );
+            let c = |k: &str| v["cpu"][k].as_f64().unwrap_or(f64::NAN);
+            println!(
+                "        cpu s (all threads): read {:.3}  mesh {:.3}  topology {:.3}  fields {:.3}  evaluate {:.3} ({:.3})",
+                c("read"),
+                c("mesh"),
+                c("topology"),
+                c("fields"),
+                c("evaluate"),
+                c("context"),
             );
             rows.push(v);
         }

@@ -17,7 +17,9 @@
 //! files are `bench-data/p2_tri_N.vtu` and `bench-data/q2_quad_N.vtu`
 //! (`reference/encodings/make_bench.py [--family q2]`). At the end a table gives the times per
 //! million points of the file and, for a Q2 and a P2 file of the same cell count, the ratio
-//! Q2 / P2 of the time per point (issue 11: ≤ 1.3). `RAYON_NUM_THREADS` sets the threads.
+//! Q2 / P2 of the time per point (issue 11: ≤ 1.3). `RAYON_NUM_THREADS` sets the threads. The
+//! `cpu` line gives the CPU seconds of the same stages (all threads): on a shared machine the
+//! figure to compare between versions at `RAYON_NUM_THREADS=1`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -26,6 +28,28 @@ use std::time::Instant;
 use fosls::{mesh, read, topology};
 
 const CASE_ENV: &str = "FOSLS_READ_CASE";
+
+/// CPU time of the whole process so far, all threads, those that ended included
+/// (`clock_gettime(CLOCK_PROCESS_CPUTIME_ID)`): unlike the wall time it does not grow while the
+/// process waits for a core, so it is the figure to compare on a shared machine (at 1 thread it
+/// equals the wall time of a quiet machine; at 2 threads it also counts rayon's idle spinning).
+fn cpu() -> f64 {
+    #[repr(C)]
+    struct Timespec {
+        sec: i64,
+        nsec: i64,
+    }
+    unsafe extern "C" {
+        fn clock_gettime(clock: i32, ts: *mut Timespec) -> i32;
+    }
+    const CLOCK_PROCESS_CPUTIME_ID: i32 = 2;
+    let mut ts = Timespec { sec: 0, nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec (two 64-bit fields on x86_64/aarch64 Linux).
+    if unsafe { clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &mut ts) } != 0 {
+        return f64::NAN;
+    }
+    ts.sec as f64 + ts.nsec as f64 * 1e-9
+}
 
 fn peak_rss_mib() -> f64 {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
@@ -40,16 +64,20 @@ fn peak_rss_mib() -> f64 {
 /// Reads `file` `runs` times in this process, prints the stages and one JSON line.
 fn case(file: &Path, runs: usize) {
     let mut best = [f64::INFINITY; 5];
+    let mut best_cpu = [f64::INFINITY; 5];
     let mut decoded_bytes = 0usize;
     let mut cells = 0usize;
     let mut points = 0usize;
     let mut family = String::new();
     for _ in 0..runs {
         let t0 = Instant::now();
+        let c0 = cpu();
         let bytes = std::fs::read(file).unwrap();
         let t1 = Instant::now();
+        let c1 = cpu();
         let vtu = read::vtu::parse_vtu(file, &bytes).unwrap();
         let t2 = Instant::now();
+        let c2 = cpu();
         drop(bytes);
         points = vtu.points.len();
         decoded_bytes = vtu.points.len() * 24
@@ -63,10 +91,13 @@ fn case(file: &Path, runs: usize) {
                 .map(|a| a.values.len() * 8)
                 .sum::<usize>();
         let t3 = Instant::now();
+        let c3 = cpu();
         let data = mesh::build(vtu).unwrap();
         let t4 = Instant::now();
+        let c4 = cpu();
         let topo = topology::build(&data).unwrap();
         let t5 = Instant::now();
+        let c5 = cpu();
         cells = data.mesh.cells.len();
         family = data
             .mesh
@@ -86,6 +117,10 @@ fn case(file: &Path, runs: usize) {
         for (b, t) in best.iter_mut().zip(times) {
             *b = b.min(t);
         }
+        let cpus = [c1 - c0, c2 - c1, c4 - c3, c5 - c4, c2 - c0];
+        for (b, t) in best_cpu.iter_mut().zip(cpus) {
+            *b = b.min(t);
+        }
     }
     let peak = peak_rss_mib();
     let size = std::fs::metadata(file).unwrap().len() as f64 / (1 << 20) as f64;
@@ -103,6 +138,10 @@ fn case(file: &Path, runs: usize) {
     );
     println!("mesh build      {:.3} s", best[2]);
     println!("topology        {:.3} s", best[3]);
+    println!(
+        "cpu             read {:.3} s, mesh build {:.3} s, topology {:.3} s  (all threads)",
+        best_cpu[4], best_cpu[2], best_cpu[3]
+    );
     let all = best[4] + best[2] + best[3];
     println!(
         "per Mpoint      read {:.3} s, mesh + topology {:.3} s, all {:.3} s",
@@ -129,6 +168,9 @@ fn case(file: &Path, runs: usize) {
             "read": best[4],
             "mesh": best[2],
             "topology": best[3],
+            "cpu_read": best_cpu[4],
+            "cpu_mesh": best_cpu[2],
+            "cpu_topology": best_cpu[3],
             "peak_mib": peak,
             "decoded_mib": decoded,
         })

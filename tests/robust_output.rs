@@ -486,6 +486,11 @@ fn convert_is_planned_too() {
     );
     let out = fosls(&[&"convert", &vtu, &"/dev/null"]);
     assert_eq!(out.status.code(), Some(0), "{out:?}");
+    // Written through, never renamed over: a regular file here would break every later
+    // process on the machine that reads /dev/null (cargo's rustc probe among them).
+    use std::os::unix::fs::FileTypeExt;
+    let kind = std::fs::metadata("/dev/null").unwrap().file_type();
+    assert!(kind.is_char_device(), "/dev/null is no longer a device");
     let out = fosls(&[&"convert", &vtu, &"-"]);
     assert_eq!(out.status.code(), Some(0));
     assert!(out.stdout.starts_with(b"<?xml"));
