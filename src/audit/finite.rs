@@ -209,6 +209,10 @@ pub fn check_estimate(file: &std::path::Path, est: &Estimate) -> Result<(), Erro
         ("energy", est.energy),
         ("length_scale", est.length_scale),
         ("contact.normal_force", est.contact.normal_force),
+        (
+            "contact.normal_force_stress",
+            est.contact.normal_force_stress,
+        ),
         ("contact.tangential_force", est.contact.tangential_force),
         ("contact.active_length", est.contact.active_length),
     ] {

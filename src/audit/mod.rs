@@ -476,6 +476,12 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     if let (Some(_), Some(fu)) = (&projection, file_u) {
         est.contact = estimate::boundary::boundary(&ctx, fu, sigma).contact;
     }
+    // The force to compare with the solver's: the residual reaction of the file's own
+    // displacement (docs/design.md §5.8); the stress used's force stays beside it.
+    if let Some(force) = file_u.and_then(|fu| estimate::reaction::contact_normal_force(&ctx, fu)) {
+        est.contact.normal_force = force;
+        est.contact.normal_force_from = estimate::ForceSource::Displacement;
+    }
     // The file's own fields, when the estimate used others: the "file" column.
     let file_admissibility = (projection.is_some()
         || rebuilt.is_some()

@@ -458,7 +458,7 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                             fric += dw * df;
                             out.admissibility.friction_negative += dw * df.min(0.0);
                         }
-                        out.contact.normal_force -= dw * p.sn;
+                        out.contact.normal_force_stress -= dw * p.sn;
                         out.contact.tangential_force += dw * p.st;
                         pen.l2sq += dw * (p.un - p.g).max(0.0).powi(2);
                         ten.l2sq += dw * p.sn.max(0.0).powi(2);
@@ -591,6 +591,7 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
     out.admissibility.cone_violation = cone.done();
     out.admissibility.dirichlet = dir.done();
     out.admissibility.neumann = neu.done();
+    out.contact.normal_force = out.contact.normal_force_stress;
     out.contact.intervals = intervals(inp, &pieces);
     out.admissibility.u_scale = u
         .iter()

@@ -12,7 +12,7 @@ use crate::topology;
 
 /// A P2 mesh of [0, 2] × [0, 1] with nx × ny squares split in two, interior vertices jittered
 /// (straight cells).
-fn rectangle(nx: usize, ny: usize) -> mesh::Dataset {
+pub(super) fn rectangle(nx: usize, ny: usize) -> mesh::Dataset {
     let (w, h) = (2.0, 1.0);
     let mut pts = Vec::new();
     let id = |i: usize, j: usize| (j * (2 * nx + 1) + i) as u32;

@@ -141,8 +141,14 @@ pub struct Contact {
     pub active_length: f64,
     pub stick_length: f64,
     pub slip_length: f64,
-    /// ∫_{Γ_C} −σ_n ds.
+    /// The normal force to compare with the solver's reaction: the consistent reaction of the
+    /// file's displacement ([`reaction::contact_normal_force`], docs/design.md §5.8) where it is
+    /// available, else `normal_force_stress`.
     pub normal_force: f64,
+    /// ∫_{Γ_C} −σ_n ds of the stress used.
+    pub normal_force_stress: f64,
+    /// Where `normal_force` comes from.
+    pub normal_force_from: ForceSource,
     /// ∫_{Γ_C} σ_t ds.
     pub tangential_force: f64,
     pub intervals: Vec<ContactInterval>,
@@ -150,6 +156,17 @@ pub struct Contact {
     /// most of the edge); `None` off Γ_C.
     #[serde(skip)]
     pub line_state: Vec<Option<ContactState>>,
+}
+
+/// What the reported normal force is computed from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ForceSource {
+    /// ∫ −σ_n ds of the stress used.
+    #[default]
+    Stress,
+    /// The residual of the file's displacement at the contact nodes.
+    Displacement,
 }
 
 /// The guaranteed bound of docs/design.md §6.
@@ -182,6 +199,7 @@ pub struct Estimate {
 
 pub mod boundary;
 pub mod interior;
+pub mod reaction;
 
 use crate::mesh::Mesh;
 use crate::problem::Context;

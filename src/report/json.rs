@@ -137,8 +137,13 @@ pub struct Contact {
     pub active_length: f64,
     pub stick_length: f64,
     pub slip_length: f64,
-    /// ∫_{Γ_C} −σ_n ds.
+    /// The force to compare with the solver's reaction: the consistent reaction of the file's
+    /// displacement where available, else `normal_force_stress` (docs/design.md §5.8).
     pub normal_force: f64,
+    /// ∫_{Γ_C} −σ_n ds of the stress used.
+    pub normal_force_stress: f64,
+    /// "displacement" or "stress": where `normal_force` comes from.
+    pub normal_force_from: String,
     /// ∫_{Γ_C} σ_t ds.
     pub tangential_force: f64,
     pub intervals: Vec<Interval>,
@@ -262,6 +267,12 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
             stick_length: est.contact.stick_length,
             slip_length: est.contact.slip_length,
             normal_force: est.contact.normal_force,
+            normal_force_stress: est.contact.normal_force_stress,
+            normal_force_from: match est.contact.normal_force_from {
+                crate::estimate::ForceSource::Displacement => "displacement",
+                crate::estimate::ForceSource::Stress => "stress",
+            }
+            .into(),
             tangential_force: est.contact.tangential_force,
             intervals: est
                 .contact

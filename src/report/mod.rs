@@ -285,6 +285,8 @@ pub(crate) mod fixture {
                 stick_length: 0.5,
                 slip_length: 0.0,
                 normal_force: 12.5,
+                normal_force_stress: 12.5,
+                normal_force_from: crate::estimate::ForceSource::Stress,
                 tangential_force: 0.0,
                 intervals: vec![
                     ContactInterval {

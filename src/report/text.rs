@@ -41,6 +41,15 @@ fn percent(part: f64, whole: f64) -> String {
     }
 }
 
+/// The relative difference (value − reference)/reference as "+1.23 %".
+fn signed_percent(value: f64, reference: f64) -> String {
+    if reference != 0.0 && reference.is_finite() {
+        format!("{:+.2} %", 100.0 * (value - reference) / reference)
+    } else {
+        "-".into()
+    }
+}
+
 /// Columns aligned by padding every cell to the widest entry of its column: `right[k]` says
 /// whether column `k` is right-aligned (numbers). Each row is indented by `indent` spaces.
 fn table(o: &mut String, indent: usize, right: &[bool], rows: &[Vec<String>]) {
@@ -447,12 +456,22 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             n(k.stick_length),
             n(k.slip_length)
         );
-        let _ = writeln!(
-            o,
-            "  normal force ∫ -σ_n ds = {}, tangential force ∫ σ_t ds = {}",
-            n(k.normal_force),
-            n(k.tangential_force)
-        );
+        match k.normal_force_from {
+            crate::estimate::ForceSource::Displacement => {
+                let _ = writeln!(
+                    o,
+                    "  normal force {} (the reaction of the file's displacement, as the solver \
+                     computes it); the stress used carries ∫ -σ_n ds = {} ({})",
+                    n(k.normal_force),
+                    n(k.normal_force_stress),
+                    signed_percent(k.normal_force_stress, k.normal_force)
+                );
+            }
+            crate::estimate::ForceSource::Stress => {
+                let _ = writeln!(o, "  normal force ∫ -σ_n ds = {}", n(k.normal_force));
+            }
+        }
+        let _ = writeln!(o, "  tangential force ∫ σ_t ds = {}", n(k.tangential_force));
     } else {
         let _ = writeln!(o, "\nContact zone: none (the scene declares no contact)");
     }
