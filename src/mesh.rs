@@ -152,7 +152,7 @@ fn double_area(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 }
 
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
+    geometry::dist2(a, b).sqrt()
 }
 
 /// How node copies of an exploded mesh were merged.
@@ -592,9 +592,11 @@ fn cell_components(mesh: &Mesh) -> Vec<u32> {
         }
         i
     }
+    // The vertices decide the components; a high-order node joins its cell's first vertex
+    // afterwards (it is in that cell's component whatever other cells hold it).
     let mut used = vec![false; np];
     for t in 0..mesh.len() {
-        let n = mesh.nodes(t);
+        let n = mesh.vertices(t);
         used[n[0] as usize] = true;
         for &v in &n[1..] {
             used[v as usize] = true;
@@ -606,7 +608,22 @@ fn cell_components(mesh: &Mesh) -> Vec<u32> {
             }
         }
     }
-    (0..np as u32)
+    // A node that is a vertex of one cell and a high-order node of another (a hanging node of
+    // a quadratic mesh) connects the two cells.
+    for t in 0..mesh.len() {
+        let n = mesh.nodes(t);
+        for &v in &n[mesh.vertices(t).len()..] {
+            if used[v as usize] {
+                let a = root(&mut parent, n[0]);
+                let b = root(&mut parent, v);
+                if a != b {
+                    let (lo, hi) = (a.min(b), a.max(b));
+                    parent[hi as usize] = lo;
+                }
+            }
+        }
+    }
+    let mut comp: Vec<u32> = (0..np as u32)
         .map(|i| {
             if used[i as usize] {
                 root(&mut parent, i)
@@ -614,7 +631,26 @@ fn cell_components(mesh: &Mesh) -> Vec<u32> {
                 NONE
             }
         })
-        .collect()
+        .collect();
+    for t in 0..mesh.len() {
+        let n = mesh.nodes(t);
+        let c = comp[n[0] as usize];
+        for &v in &n[mesh.vertices(t).len()..] {
+            if !used[v as usize] {
+                comp[v as usize] = c;
+            }
+        }
+    }
+    comp
+}
+
+/// The number of components in `cell_components`' labelling: each component is labelled by
+/// its smallest point index, so it is counted once, at that point.
+fn component_count(comp: &[u32]) -> usize {
+    comp.iter()
+        .enumerate()
+        .filter(|&(i, &c)| c == i as u32)
+        .count()
 }
 
 /// Merges node copies and averages point data over copies, recording the largest jump per
@@ -645,11 +681,7 @@ fn merge_copies(
     let mut fragments = None;
     if !exploded && piece_points.len() < 2 {
         let comp = cell_components(mesh);
-        let k = comp
-            .iter()
-            .filter(|&&c| c != NONE)
-            .collect::<std::collections::HashSet<_>>()
-            .len();
+        let k = component_count(&comp);
         if k < 3 {
             return None;
         }

@@ -260,30 +260,79 @@ pub fn straight_position(family: Family, x: &[[f64; 2]], k: usize) -> [f64; 2] {
     [p[0] + x[0][0], p[1] + x[0][1]]
 }
 
+/// |a − b|², without `hypot`: the reader refuses coordinates past ±1e100 and extents below
+/// 1e-100 (docs/design.md §4.2), so the squares neither overflow nor lose a meaningful digit,
+/// and `hypot` costs about three times as much (a measurable share of the mesh build).
+#[inline]
+pub fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (a[0] - b[0], a[1] - b[1]);
+    dx * dx + dy * dy
+}
+
 /// The diameter of the cell through its vertices (largest vertex distance).
 pub fn diameter(family: Family, x: &[[f64; 2]]) -> f64 {
+    diameter2(family, x).sqrt()
+}
+
+/// The squared diameter of the cell through its vertices.
+fn diameter2(family: Family, x: &[[f64; 2]]) -> f64 {
     let nv = family.vertices();
-    let mut h = 0.0f64;
+    let mut h2 = 0.0f64;
     for i in 0..nv {
         for j in i + 1..nv {
-            h = h.max((x[i][0] - x[j][0]).hypot(x[i][1] - x[j][1]));
+            h2 = h2.max(dist2(x[i], x[j]));
         }
     }
-    h
+    h2
 }
 
 /// The diameter of a point set: the largest distance between two points, over the convex
-/// hull (Andrew's monotone chain), O(n log n).
+/// hull (Andrew's monotone chain), O(n log n) in the points that survive the Akl–Toussaint
+/// filter: the extreme points in the eight directions 0°, 45°, …, 315° form, in that order,
+/// a convex polygon inscribed in the hull, and a point strictly inside it is no hull vertex,
+/// so only the points near the boundary of the hull are sorted.
 pub fn point_set_diameter(points: &[[f64; 2]]) -> f64 {
-    let mut p: Vec<[f64; 2]> = points.to_vec();
-    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-    p.dedup();
-    if p.len() < 2 {
-        return 0.0;
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let dirs: [[f64; 2]; 8] = [
+        [1.0, 0.0],
+        [s, s],
+        [0.0, 1.0],
+        [-s, s],
+        [-1.0, 0.0],
+        [-s, -s],
+        [0.0, -1.0],
+        [s, -s],
+    ];
+    let mut ext = [[0.0f64; 2]; 8];
+    let mut best = [f64::NEG_INFINITY; 8];
+    for &q in points {
+        for k in 0..8 {
+            let v = dirs[k][0] * q[0] + dirs[k][1] * q[1];
+            if v > best[k] {
+                best[k] = v;
+                ext[k] = q;
+            }
+        }
     }
     let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
         (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
     };
+    let mut poly: Vec<[f64; 2]> = Vec::with_capacity(8);
+    for &q in &ext {
+        if poly.last() != Some(&q) && poly.first() != Some(&q) {
+            poly.push(q);
+        }
+    }
+    let inside = |q: [f64; 2]| {
+        poly.len() >= 3
+            && (0..poly.len()).all(|k| cross(poly[k], poly[(k + 1) % poly.len()], q) > 0.0)
+    };
+    let mut p: Vec<[f64; 2]> = points.iter().copied().filter(|&q| !inside(q)).collect();
+    p.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    p.dedup();
+    if p.len() < 2 {
+        return 0.0;
+    }
     let mut hull: Vec<[f64; 2]> = Vec::new();
     for pass in 0..2 {
         let start = hull.len();
@@ -302,25 +351,24 @@ pub fn point_set_diameter(points: &[[f64; 2]]) -> f64 {
         }
         hull.pop();
     }
-    let mut d = 0.0f64;
+    let mut d2 = 0.0f64;
     for i in 0..hull.len() {
         for j in i + 1..hull.len() {
-            d = d.max((hull[i][0] - hull[j][0]).hypot(hull[i][1] - hull[j][1]));
+            d2 = d2.max(dist2(hull[i], hull[j]));
         }
     }
-    d
+    d2.sqrt()
 }
 
 /// Classifies a cell: curved if any high-order node is off its straight position by more than
 /// `rel_tol · h_T`, bilinear if a quadrilateral's vertices are no parallelogram to the same
 /// tolerance, else affine.
 pub fn classify(family: Family, x: &[[f64; 2]], rel_tol: f64) -> Shape {
-    let h = diameter(family, x);
-    let tol = rel_tol * h;
+    // Compared squared: |off|² > (rel_tol · h)².
+    let tol2 = rel_tol * rel_tol * diameter2(family, x);
     let nv = family.vertices();
     for k in nv..family.nodes() {
-        let p = straight_position(family, x, k);
-        if (x[k][0] - p[0]).hypot(x[k][1] - p[1]) > tol {
+        if dist2(x[k], straight_position(family, x, k)) > tol2 {
             return Shape::Curved;
         }
     }
@@ -330,7 +378,7 @@ pub fn classify(family: Family, x: &[[f64; 2]], rel_tol: f64) -> Shape {
             x[0][0] - x[1][0] + x[2][0] - x[3][0],
             x[0][1] - x[1][1] + x[2][1] - x[3][1],
         ];
-        if d[0].hypot(d[1]) > tol {
+        if dist2(d, [0.0, 0.0]) > tol2 {
             return Shape::Bilinear;
         }
     }
@@ -340,6 +388,43 @@ pub fn classify(family: Family, x: &[[f64; 2]], rel_tol: f64) -> Shape {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The filtered hull diameter against the O(n²) definition: a lattice (ties in every
+    /// direction), points on a circle and inside it, collinear points, one point.
+    #[test]
+    fn point_set_diameter_is_the_largest_distance() {
+        let brute = |p: &[[f64; 2]]| {
+            let mut d = 0.0f64;
+            for a in p {
+                for b in p {
+                    d = d.max((a[0] - b[0]).hypot(a[1] - b[1]));
+                }
+            }
+            d
+        };
+        let mut lattice = Vec::new();
+        for i in 0..13 {
+            for j in 0..7 {
+                lattice.push([i as f64 * 0.25 - 1.0, j as f64 / 3.0]);
+            }
+        }
+        let mut disc = Vec::new();
+        let mut seed = 12345u64;
+        for k in 0..500 {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let r = (seed >> 11) as f64 / (1u64 << 53) as f64;
+            let t = k as f64 * 0.7;
+            let r = if k % 5 == 0 { 1.0 } else { r };
+            disc.push([2.0 + r * t.cos(), -1.0 + r * t.sin()]);
+        }
+        let line: Vec<[f64; 2]> = (0..20).map(|k| [k as f64, 2.0 * k as f64]).collect();
+        for p in [lattice, disc, line, vec![[3.0, 4.0]]] {
+            let (d, b) = (point_set_diameter(&p), brute(&p));
+            assert!((d - b).abs() <= 1e-15 * b.max(1.0), "{d} vs {b}");
+        }
+    }
 
     #[test]
     fn every_family_is_nodal_and_its_edges_follow_the_nodes() {

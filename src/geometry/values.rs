@@ -356,7 +356,7 @@ pub fn facet_point(family: Family, x: &[[f64; 2]], k: usize, s: f64) -> FacetPoi
         m[0][0] * d[0] + m[0][1] * d[1],
         m[1][0] * d[0] + m[1][1] * d[1],
     ];
-    let ds = tangent[0].hypot(tangent[1]);
+    let ds = super::dist2(tangent, [0.0, 0.0]).sqrt();
     let mut grad = [[0.0; 2]; MAX_NODES];
     for i in 0..n {
         grad[i] = jac.physical_gradient(g[i]);
@@ -563,7 +563,7 @@ pub fn sub_edge_point(
         m[0][0] * d[0] + m[0][1] * d[1],
         m[1][0] * d[0] + m[1][1] * d[1],
     ];
-    let len = t[0].hypot(t[1]);
+    let len = super::dist2(t, [0.0, 0.0]).sqrt();
     (p, [t[1] / len, -t[0] / len], len, xs)
 }
 
