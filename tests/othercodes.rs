@@ -225,24 +225,102 @@ fn default_mode_contact_zone_on_every_hertz_fixture() {
             "{case}: active length {len} against 2a = {two_a}"
         );
         // One zone: the states other than "separated" form one run.
-        let runs = r
+        let states: Vec<&str> = r
             .contact
             .intervals
             .iter()
-            .zip(r.contact.intervals.iter().skip(1))
-            .filter(|(a, b)| a.state == "separated" && b.state != "separated")
-            .count()
-            + usize::from(
-                r.contact
-                    .intervals
-                    .first()
-                    .is_some_and(|i| i.state != "separated"),
-            );
-        assert_eq!(runs, 1, "{case}: {:?}", r.contact.intervals);
+            .map(|i| i.state.as_str())
+            .collect();
+        assert_eq!(zone_runs(&states), 1, "{case}: {:?}", r.contact.intervals);
         assert!(r.contact.intervals.iter().all(|i| i.length > 0.0));
         checked += 1;
     }
     assert!(checked >= 13, "{checked} Hertz fixtures checked");
+}
+
+/// The number of runs of states other than "separated" along a boundary's intervals: one
+/// run is one contact zone (contact, stick and slip pieces side by side).
+fn zone_runs(states: &[&str]) -> usize {
+    states
+        .iter()
+        .enumerate()
+        .filter(|&(k, s)| *s != "separated" && (k == 0 || states[k - 1] == "separated"))
+        .count()
+}
+
+/// The Hertz fixtures of the other codes (CalculiX penalty with and without friction, DOLFINx
+/// P1/P2 serial and on 2 ranks, MFEM high- and low-order output, sfepy's legacy VTK), in
+/// default mode through their container (`expected.json`'s entry), each against its own
+/// solver: normal force within 1 % of the solver's reaction, active length within 3 % of
+/// Hertz's 2a for that reaction, one contact zone. XDMF needs `--features xdmf`.
+#[test]
+fn other_codes_hertz_fixtures_in_default_mode() {
+    #[derive(Debug, Deserialize)]
+    struct Interval {
+        state: String,
+    }
+    #[derive(Debug, Deserialize)]
+    struct Zone {
+        normal_force: f64,
+        active_length: f64,
+        intervals: Vec<Interval>,
+    }
+    #[derive(Debug, Deserialize)]
+    struct Out {
+        contact: Zone,
+    }
+    let mut cases = vec![
+        "calculix_hertz_cpe6_penalty",
+        "calculix_hertz_cpe6_friction",
+        "dolfinx_hertz_p1_vtkfile",
+        "dolfinx_hertz_p2_vtkfile",
+        "dolfinx_hertz_p2_vtkfile_mpi2",
+        "mfem_hertz_p2_highorder",
+        "mfem_hertz_p2_loworder",
+        "sfepy_hertz_p2_vtk",
+    ];
+    if cfg!(feature = "xdmf") {
+        cases.push("dolfinx_hertz_p2_xdmf");
+    }
+    for case in cases {
+        let dir = root().join("fixtures").join(case);
+        let e = expected(case);
+        let entry = dir.join(e["entry"].as_str().unwrap());
+        let p = e["hertz"]["P_solver"].as_f64().unwrap();
+        let two_a = e["hertz"]["two_a"].as_f64().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
+            .arg("estimate")
+            .arg(&entry)
+            .arg("--scene")
+            .arg(dir.join("scene.toml"))
+            .args(["--json", "-", "--quiet"])
+            .output()
+            .unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{case}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let r: Out = serde_json::from_slice(&out.stdout).unwrap();
+        let force = r.contact.normal_force;
+        assert!(
+            ((force - p) / p).abs() < 0.01,
+            "{case}: normal force {force} against the solver's reaction {p}"
+        );
+        let len = r.contact.active_length;
+        assert!(
+            ((len - two_a) / two_a).abs() < 0.03,
+            "{case}: active length {len} against 2a = {two_a}"
+        );
+        let states: Vec<&str> = r
+            .contact
+            .intervals
+            .iter()
+            .map(|i| i.state.as_str())
+            .collect();
+        assert_eq!(zone_runs(&states), 1, "{case}: {states:?}");
+    }
 }
 
 /// From a DOLFINx file to a first estimate (issue 12): `fosls scene` writes the starter,
