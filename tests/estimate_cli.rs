@@ -40,6 +40,7 @@ struct ContactReport {
     stick_length: f64,
     slip_length: f64,
     normal_force: f64,
+    normal_force_stress: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -123,11 +124,11 @@ fn hertz_a(p: f64, e: f64, nu: f64) -> f64 {
 
 /// docs/design.md / issue: on the NGSolve penalty Hertz solution (P2, curved) the normal force is
 /// within 1 % of the reaction at the top, the active length within 3 % of 2a, and the
-/// penetration is reported. The coarse P1 solution's projected stress misses P by 1.2 %
-/// (the harness measures the same), so there only 2 % is asked.
+/// penetration is reported. The force is the residual reaction of the file's displacement,
+/// so P1 is held to 1 % too (its projected stress alone carries 1.2 % less).
 #[test]
 fn hertz_ngsolve_force_width_and_penetration() {
-    for (case, force_tol) in [("hertz_ngsolve_p2", 0.01), ("hertz_ngsolve_p1", 0.02)] {
+    for (case, force_tol) in [("hertz_ngsolve_p2", 0.01), ("hertz_ngsolve_p1", 0.01)] {
         let r = estimate(case, &[]);
         let exp = expected(case, "expected.json");
         let p = exp["solver"]["reaction_top"]["P"].as_f64().unwrap();
@@ -158,10 +159,12 @@ fn hertz_ngsolve_force_width_and_penetration() {
             c["penetration_max"].as_f64().unwrap(),
             1e-6,
         );
-        // The harness's own integrals on the same fields.
+        // The harness's own integral of the file's stress traction on the same fields is
+        // the stress-side force; the reported force is the residual reaction of the file's
+        // displacement (docs/design.md §5.8), compared with P above.
         close(
-            &format!("{case} normal force"),
-            r.contact.normal_force,
+            &format!("{case} normal force of the stress"),
+            r.contact.normal_force_stress,
             c["normal_force"].as_f64().unwrap(),
             1e-8,
         );
@@ -199,8 +202,8 @@ fn contact_zone_agrees_with_the_harness_on_every_contact_fixture() {
         let name = exp["contact"].as_str().unwrap();
         let c = &exp["boundaries"][name];
         close(
-            &format!("{case} normal force"),
-            r.contact.normal_force,
+            &format!("{case} normal force of the stress"),
+            r.contact.normal_force_stress,
             c["normal_force"].as_f64().unwrap(),
             1e-8,
         );

@@ -3,7 +3,9 @@
 //!
 //! For the file's u_h, the residual of the elasticity equations at node i and direction a is
 //!
-//!     R_{i,a} = ∫_Ω Cε(u_h) : ∇(φ_i e_a) dx − ∫_Ω f·φ_i e_a dx − ∫_{Γ_N} t·φ_i e_a ds.
+//! ```text
+//! R_{i,a} = ∫_Ω Cε(u_h) : ∇(φ_i e_a) dx − ∫_Ω f·φ_i e_a dx − ∫_{Γ_N} t·φ_i e_a ds.
+//! ```
 //!
 //! A Galerkin solution of the contact problem (active set, penalty, Nitsche or a mortar
 //! method on this mesh) has R_i = 0 at every free node, so for the nodes N_C of the contact
@@ -12,7 +14,9 @@
 //! function equal to e_a on Γ_C and zero at the other constrained nodes), so a code that
 //! writes its P2 field at Lagrange points gives the same figure. The normal force is
 //!
-//!     N = −Σ_{i ∈ N_C} R_i · n_i,
+//! ```text
+//! N = −Σ_{i ∈ N_C} R_i · n_i,
+//! ```
 //!
 //! n_i the contact direction at node i (the obstacle's normal, or the mean of the outward
 //! normals of the contact edges at the node): exact for a plane obstacle, within O(h²)·curvature
