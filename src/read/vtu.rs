@@ -336,7 +336,8 @@ enum Source<'a> {
 struct ArraySpec<'a> {
     piece: usize,
     role: Role,
-    name: String,
+    /// Borrowed from the file unless it held a character reference.
+    name: Cow<'a, str>,
     scalar: Scalar,
     components: usize,
     component_names: Vec<String>,
@@ -380,9 +381,6 @@ enum Tag {
     Other,
 }
 
-/// A DataArray being read: its section, attributes and text segments so far.
-type OpenArray<'a> = (Tag, Attrs<'a>, Vec<Cow<'a, [u8]>>);
-
 /// Attributes of one element, borrowed from the file where no normalisation was needed.
 type Attrs<'a> = Vec<(Cow<'a, str>, Cow<'a, str>)>;
 
@@ -408,8 +406,19 @@ fn within<'a>(input: &'a [u8], part: &str) -> Option<&'a str> {
 /// The attributes of `e`, borrowed from `input` where possible (a file may hold many
 /// elements: one copy per attribute was most of the cost of reading many small arrays).
 fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attrs<'a>, String> {
+    let mut out = Vec::new();
+    attr_map_into(input, e, &mut out)?;
+    Ok(out)
+}
+
+/// [`attr_map`] into `out` (cleared first), so that one buffer serves every element.
+fn attr_map_into<'a>(
+    input: &'a [u8],
+    e: &BytesStart<'_>,
+    out: &mut Attrs<'a>,
+) -> std::result::Result<(), String> {
+    out.clear();
     if let Some(raw) = within(input, e.attributes_raw()) {
-        let mut out = Vec::new();
         let mut ok = true;
         for a in quick_xml::events::attributes::Attributes::new(raw, 0) {
             let Ok(a) = a else {
@@ -423,11 +432,11 @@ fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attr
             out.push((Cow::Borrowed(a.key.0), value));
         }
         if ok {
-            return Ok(out);
+            return Ok(());
         }
         // An error: the messages (and their positions) are those of the element's own parse.
+        out.clear();
     }
-    let mut out = Vec::new();
     for a in e.attributes() {
         let a = a.map_err(|err| format!("malformed attribute ({err})"))?;
         let key = a.key.as_ref().to_string();
@@ -437,7 +446,7 @@ fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attr
             .into_owned();
         out.push((Cow::Owned(key), Cow::Owned(value)));
     }
-    Ok(out)
+    Ok(())
 }
 
 fn get<'m>(attrs: &'m [(Cow<'_, str>, Cow<'_, str>)], key: &str) -> Option<&'m str> {
@@ -532,8 +541,13 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
     };
     let mut pieces: Vec<PieceSpec> = Vec::new();
     let mut specs: Vec<ArraySpec> = Vec::new();
-    // The DataArray being read: its attributes and text segments.
-    let mut current: Option<OpenArray> = None;
+    // The DataArray being read: its section; its attributes and text segments are in buffers
+    // kept from one array to the next (a file may hold many arrays), as are the attributes of
+    // the other elements.
+    let mut current: Option<Tag> = None;
+    let mut array_attrs: Attrs = Vec::new();
+    let mut texts: Vec<Cow<[u8]>> = Vec::new();
+    let mut scratch: Attrs = Vec::new();
 
     loop {
         let pos = reader.buffer_position();
@@ -588,8 +602,14 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 _ => Tag::Other,
             };
-            let attrs = attr_map(bytes, &e)
+            let attrs = if tag == Tag::DataArray {
+                &mut array_attrs
+            } else {
+                &mut scratch
+            };
+            attr_map_into(bytes, &e, attrs)
                 .map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
+            let attrs = &*attrs;
             match tag {
                 Tag::File => {
                     seen_root = true;
@@ -665,13 +685,20 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 Tag::DataArray => {
                     let section = parent.unwrap_or(Tag::Other);
+                    texts.clear();
                     if empty {
-                        let spec = finish_array(path, pieces.len(), section, attrs, Vec::new())?;
+                        let spec = finish_array(
+                            path,
+                            pieces.len(),
+                            section,
+                            &mut array_attrs,
+                            &mut texts,
+                        )?;
                         if let Some(s) = spec {
                             specs.push(s);
                         }
                     } else {
-                        current = Some((section, attrs, Vec::new()));
+                        current = Some(section);
                     }
                 }
                 _ => {}
@@ -683,23 +710,20 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         }
         match event {
             Event::Text(t) => {
-                if stack.last() == Some(&Tag::DataArray)
-                    && let Some((_, _, texts)) = current.as_mut()
-                {
+                if stack.last() == Some(&Tag::DataArray) && current.is_some() {
                     texts.push(text_bytes(t.into_inner()));
                 }
             }
             Event::CData(t) => {
-                if stack.last() == Some(&Tag::DataArray)
-                    && let Some((_, _, texts)) = current.as_mut()
-                {
+                if stack.last() == Some(&Tag::DataArray) && current.is_some() {
                     texts.push(text_bytes(t.into_inner()));
                 }
             }
             Event::End(_) => {
                 if stack.pop() == Some(Tag::DataArray)
-                    && let Some((section, attrs, texts)) = current.take()
-                    && let Some(s) = finish_array(path, pieces.len(), section, attrs, texts)?
+                    && let Some(section) = current.take()
+                    && let Some(s) =
+                        finish_array(path, pieces.len(), section, &mut array_attrs, &mut texts)?
                 {
                     specs.push(s);
                 }
@@ -776,10 +800,13 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         }
     }
     for (p, piece) in pieces.iter().enumerate() {
-        let place = if pieces.len() > 1 {
-            format!("Piece {p}")
-        } else {
-            "Piece".to_string()
+        // Only built for a message (a file may hold many pieces).
+        let place = || {
+            if pieces.len() > 1 {
+                format!("Piece {p}")
+            } else {
+                "Piece".to_string()
+            }
         };
         for (role, what) in [
             (Role::Points, "a Points array"),
@@ -793,10 +820,10 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 _ => piece.cells > 0,
             };
             if n == 0 && needed {
-                return Err(err(&place, format!("has no {what}")));
+                return Err(err(&place(), format!("has no {what}")));
             }
             if n > 1 {
-                return Err(err(&place, format!("has more than one {what}")));
+                return Err(err(&place(), format!("has more than one {what}")));
             }
         }
     }
@@ -817,7 +844,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         })
         .collect::<Result<_>>()?;
 
-    assemble(path, &pieces, &specs, decoded, format)
+    assemble(path, &pieces, &mut specs, decoded, format)
 }
 
 enum Decoded {
@@ -836,19 +863,23 @@ fn true_value(v: i64, index: usize, big: Option<(usize, u64)>) -> String {
 }
 
 /// Turns a DataArray's attributes and text into a spec; `None` for arrays fosls does not use
-/// (polyhedron faces).
+/// (polyhedron faces). The name and the text are moved out of `attrs` and `texts`, which the
+/// caller reuses.
 fn finish_array<'a>(
     path: &Path,
     piece_count: usize,
     section: Tag,
-    attrs: Attrs<'a>,
-    texts: Vec<Cow<'a, [u8]>>,
+    attrs: &mut Attrs<'a>,
+    texts: &mut Vec<Cow<'a, [u8]>>,
 ) -> Result<Option<ArraySpec<'a>>> {
     let piece = piece_count.saturating_sub(1);
-    let name = get(&attrs, "Name").unwrap_or("").to_string();
+    let name: Cow<'a, str> = match attrs.iter_mut().find(|(k, _)| k == "Name") {
+        Some((_, v)) => std::mem::take(v),
+        None => Cow::Borrowed(""),
+    };
     let role = match section {
         Tag::Points => Role::Points,
-        Tag::Cells => match name.as_str() {
+        Tag::Cells => match name.as_ref() {
             "connectivity" => Role::Connectivity,
             "offsets" => Role::Offsets,
             "types" => Role::Types,
@@ -857,22 +888,13 @@ fn finish_array<'a>(
         Tag::PointData => Role::PointData,
         _ => Role::CellData,
     };
-    let mut spec = ArraySpec {
-        piece,
-        role,
-        name,
-        scalar: Scalar::Float64,
-        components: 1,
-        component_names: Vec::new(),
-        source: Source::Appended(0),
-    };
+    let attrs = &*attrs;
     // The place is only built for a message (a file may hold many arrays).
-    let name_in_file = get(&attrs, "Name").unwrap_or("");
     let err = |problem: String| {
         let named = ArraySpec {
             piece,
             role,
-            name: name_in_file.to_string(),
+            name: Cow::Borrowed(name.as_ref()),
             scalar: Scalar::Float64,
             components: 1,
             component_names: Vec::new(),
@@ -880,13 +902,14 @@ fn finish_array<'a>(
         };
         Error::input(path, named.place(piece_count), problem)
     };
-    if matches!(role, Role::PointData | Role::CellData) && spec.name.is_empty() {
+    if matches!(role, Role::PointData | Role::CellData) && name.is_empty() {
         return Err(err("has no Name attribute".into()));
     }
-    let ty = get(&attrs, "type").ok_or_else(|| err("missing attribute type".into()))?;
-    spec.scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type {}", quote(ty))))?;
-    if let Some(c) = get(&attrs, "NumberOfComponents") {
-        spec.components = c
+    let ty = get(attrs, "type").ok_or_else(|| err("missing attribute type".into()))?;
+    let scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type {}", quote(ty))))?;
+    let mut components = 1;
+    if let Some(c) = get(attrs, "NumberOfComponents") {
+        components = c
             .trim()
             .parse::<usize>()
             .ok()
@@ -899,41 +922,44 @@ fn finish_array<'a>(
             })?;
     }
     // Component names by index, in one pass over the attributes (an element may hold many).
-    let named = attrs.iter().any(|(k, _)| k.starts_with("ComponentName"));
-    let mut names: Vec<Option<&str>> = vec![None; if named { spec.components } else { 0 }];
-    for (k, v) in &attrs {
-        if let Some(i) = k
-            .strip_prefix("ComponentName")
-            .and_then(|i| i.parse::<usize>().ok().filter(|n| n.to_string() == i))
-            && i < names.len()
-            && names[i].is_none()
-        {
-            names[i] = Some(v.as_ref());
+    let mut component_names = Vec::new();
+    if attrs.iter().any(|(k, _)| k.starts_with("ComponentName")) {
+        let mut names: Vec<Option<&str>> = vec![None; components];
+        for (k, v) in attrs {
+            if let Some(i) = k
+                .strip_prefix("ComponentName")
+                .and_then(|i| i.parse::<usize>().ok().filter(|n| n.to_string() == i))
+                && i < names.len()
+                && names[i].is_none()
+            {
+                names[i] = Some(v.as_ref());
+            }
+        }
+        for n in names {
+            match n {
+                Some(n) => component_names.push(n.to_string()),
+                None => break,
+            }
+        }
+        if component_names.len() != components {
+            component_names.clear();
         }
     }
-    for n in names {
-        match n {
-            Some(n) => spec.component_names.push(n.to_string()),
-            None => break,
-        }
-    }
-    if spec.component_names.len() != spec.components {
-        spec.component_names.clear();
-    }
-    let text = || -> Cow<'a, [u8]> {
-        let mut texts = texts;
+    let mut text = || -> Cow<'a, [u8]> {
         if texts.len() == 1 {
             texts.pop().unwrap_or_default()
         } else {
-            Cow::Owned(texts.concat())
+            let joined = Cow::Owned(texts.concat());
+            texts.clear();
+            joined
         }
     };
-    spec.source = match get(&attrs, "format").unwrap_or("ascii") {
+    let source = match get(attrs, "format").unwrap_or("ascii") {
         "ascii" => Source::Ascii(text()),
         "binary" => Source::Binary(text()),
         "appended" => {
             let off =
-                get(&attrs, "offset").ok_or_else(|| err("appended array without offset".into()))?;
+                get(attrs, "offset").ok_or_else(|| err("appended array without offset".into()))?;
             Source::Appended(off.trim().parse::<usize>().map_err(|_| {
                 err(format!(
                     "offset {} is not a non-negative integer",
@@ -948,7 +974,15 @@ fn finish_array<'a>(
             )));
         }
     };
-    Ok(Some(spec))
+    Ok(Some(ArraySpec {
+        piece,
+        role,
+        name,
+        scalar,
+        components,
+        component_names,
+        source,
+    }))
 }
 
 fn decode_array(
@@ -1092,7 +1126,7 @@ fn check_count(
 fn assemble(
     path: &Path,
     pieces: &[PieceSpec],
-    specs: &[ArraySpec],
+    specs: &mut [ArraySpec],
     decoded: Vec<Decoded>,
     mut format: FileFormat,
 ) -> Result<VtuFile> {
@@ -1117,15 +1151,23 @@ fn assemble(
         format: FileFormat::default(),
     };
     let mut decoded: Vec<Option<Decoded>> = decoded.into_iter().map(Some).collect();
-    // Arrays by piece, built in one pass (a file may hold many pieces and many arrays).
+    // Arrays by piece, found in one pass (a file may hold many pieces and many arrays): the
+    // specs are in file order, so those of piece `p` are `specs[starts[p]..starts[p + 1]]`,
+    // with `data[p]` point and cell arrays.
     let mut first = vec![[usize::MAX; 4]; pieces.len()];
-    let mut data_arrays: Vec<[Vec<usize>; 2]> = vec![[Vec::new(), Vec::new()]; pieces.len()];
+    let mut starts = vec![0usize; pieces.len() + 1];
+    let mut data = vec![[0usize; 2]; pieces.len()];
     for (i, s) in specs.iter().enumerate() {
+        debug_assert!(i == 0 || specs[i - 1].piece <= s.piece);
+        starts[s.piece + 1] += 1;
         match s.role.structural() {
             Some(k) if first[s.piece][k] == usize::MAX => first[s.piece][k] = i,
             Some(_) => {}
-            None => data_arrays[s.piece][usize::from(s.role == Role::CellData)].push(i),
+            None => data[s.piece][usize::from(s.role == Role::CellData)] += 1,
         }
+    }
+    for p in 0..pieces.len() {
+        starts[p + 1] += starts[p];
     }
     let mut take = |p: usize, role: Role| -> Option<(usize, Decoded)> {
         let i = first[p][role.structural()?];
@@ -1181,15 +1223,16 @@ fn assemble(
             else {
                 return Err(err("Cells", "types are not integers".into()));
             };
-            let oplace = specs[oi].place(npieces);
-            let cplace = specs[ci].place(npieces);
-            let tplace = specs[ti].place(npieces);
+            // The places are only built for a message (a file may hold many pieces).
+            let oplace = || specs[oi].place(npieces);
+            let cplace = || specs[ci].place(npieces);
+            let tplace = || specs[ti].place(npieces);
             let conn_base = file.connectivity.len();
             let mut prev = 0i64;
             for (c, &o) in offsets.iter().enumerate() {
                 if o < prev || o > conn.len() as i64 {
                     return Err(err(
-                        &oplace,
+                        &oplace(),
                         format!(
                             "offset {} of cell {c} is {} (connectivity has {} entries)",
                             true_value(o, c, obig),
@@ -1208,7 +1251,7 @@ fn assemble(
                 let known = kind.map(cell_type::fixed_nodes);
                 if known.is_none() || known == Some(Some(0)) {
                     return Err(err(
-                        &tplace,
+                        &tplace(),
                         format!(
                             "cell {cell} has unsupported VTK cell type {t} ({}); fosls reads \
                              vertices (1), lines (3), triangles (5), quads (9), quadratic edges \
@@ -1223,7 +1266,7 @@ fn assemble(
                     && count != nodes
                 {
                     return Err(err(
-                        &oplace,
+                        &oplace(),
                         format!(
                             "cell {cell} ({}) has {count} nodes, expected {nodes}",
                             cell_type::name(t as u8),
@@ -1231,7 +1274,7 @@ fn assemble(
                     ));
                 }
                 if count == 0 {
-                    return Err(err(&oplace, format!("cell {cell} has no nodes")));
+                    return Err(err(&oplace(), format!("cell {cell} has no nodes")));
                 }
                 file.types.push(t as u8);
                 file.offsets.push(conn_base + o as usize);
@@ -1239,14 +1282,14 @@ fn assemble(
             }
             if prev as usize != conn.len() {
                 return Err(err(
-                    &cplace,
+                    &cplace(),
                     format!("has {} entries but the offsets end at {prev}", conn.len()),
                 ));
             }
             for (k, &v) in conn.iter().enumerate() {
                 if v < 0 || v as usize >= piece.points {
                     return Err(err(
-                        &cplace,
+                        &cplace(),
                         format!(
                             "entry {k} refers to point {}, but the piece has {} points",
                             true_value(v, k, cbig),
@@ -1261,18 +1304,21 @@ fn assemble(
     }
 
     // Point and cell arrays: the first piece sets names and components, the others must match.
-    for role in [Role::PointData, Role::CellData] {
-        let mut merged: Vec<DataArray> = Vec::new();
-        let mut by_name: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
-        for (p, arrays) in data_arrays.iter_mut().enumerate() {
-            let mine = std::mem::take(&mut arrays[usize::from(role == Role::CellData)]);
-            let mut seen_here = std::collections::HashSet::new();
-            if p > 0 && mine.len() != merged.len() {
+    // Names are hashed once, in piece 0; a later piece marks each array it meets with its own
+    // number, so a name met twice in one piece is found without a set per piece.
+    for (r, role) in [Role::PointData, Role::CellData].into_iter().enumerate() {
+        // (spec, values) of each array of piece 0, in file order.
+        let mut merged: Vec<(usize, Vec<f64>)> = Vec::new();
+        let mut by_name: std::collections::HashMap<&str, usize> =
+            std::collections::HashMap::with_capacity(data.first().map_or(0, |d| d[r]));
+        let mut seen_in: Vec<usize> = Vec::new();
+        for p in 0..npieces {
+            let count = data[p][r];
+            if p > 0 && count != merged.len() {
                 return Err(err(
                     &format!("Piece {p}"),
                     format!(
-                        "has {} {} arrays, piece 0 has {}",
-                        mine.len(),
+                        "has {count} {} arrays, piece 0 has {}",
                         if role == Role::PointData {
                             "point"
                         } else {
@@ -1282,43 +1328,61 @@ fn assemble(
                     ),
                 ));
             }
-            for i in mine {
+            for i in starts[p]..starts[p + 1] {
                 let s = &specs[i];
+                if s.role != role {
+                    continue;
+                }
                 let Some(Decoded::Float(values)) = decoded[i].take() else {
                     continue;
                 };
-                if !seen_here.insert(s.name.as_str()) {
+                if p == 0 {
+                    if by_name.insert(s.name.as_ref(), merged.len()).is_some() {
+                        return Err(err(&s.place(npieces), "appears twice".into()));
+                    }
+                    merged.push((i, values));
+                    continue;
+                }
+                let Some(&k) = by_name.get(s.name.as_ref()) else {
+                    return Err(err(&s.place(npieces), "is not in piece 0".into()));
+                };
+                if seen_in[k] == p {
                     return Err(err(&s.place(npieces), "appears twice".into()));
                 }
-                if p == 0 {
-                    by_name.insert(s.name.as_str(), merged.len());
-                    merged.push(DataArray {
-                        name: s.name.clone(),
-                        scalar: s.scalar,
-                        components: s.components,
-                        component_names: s.component_names.clone(),
-                        values,
-                    });
-                } else {
-                    let Some(a) = by_name.get(s.name.as_str()).map(|&k| &mut merged[k]) else {
-                        return Err(err(&s.place(npieces), "is not in piece 0".into()));
-                    };
-                    if a.components != s.components {
-                        return Err(err(
-                            &s.place(npieces),
-                            format!(
-                                "has {} components, {} in piece 0",
-                                s.components, a.components
-                            ),
-                        ));
-                    }
-                    a.values.extend_from_slice(&values);
+                seen_in[k] = p;
+                let (a, into) = &mut merged[k];
+                let components = specs[*a].components;
+                if components != s.components {
+                    return Err(err(
+                        &s.place(npieces),
+                        format!("has {} components, {components} in piece 0", s.components),
+                    ));
                 }
+                into.extend_from_slice(&values);
+            }
+            if p == 0 {
+                seen_in = vec![0; merged.len()];
             }
         }
+        drop(by_name);
+        // The names and component names move from the specs: one copy, only of names that
+        // were not borrowed from the file.
+        let arrays = merged
+            .into_iter()
+            .map(|(i, values)| {
+                let s = &mut specs[i];
+                DataArray {
+                    name: std::mem::take(&mut s.name).into_owned(),
+                    scalar: s.scalar,
+                    components: s.components,
+                    component_names: std::mem::take(&mut s.component_names),
+                    values,
+                }
+            })
+            .collect();
         match role {
-            Role::PointData => file.point_data = merged,
-            _ => file.cell_data = merged,
+            Role::PointData => file.point_data = arrays,
+            _ => file.cell_data = arrays,
         }
     }
     file.format = format;
