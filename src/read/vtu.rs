@@ -726,7 +726,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
             match tag {
                 Tag::File => {
                     seen_root = true;
-                    if let Some(t) = get(&attrs, "type")
+                    if let Some(t) = get(attrs, "type")
                         && t != "UnstructuredGrid"
                     {
                         return Err(err(
@@ -737,7 +737,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                             ),
                         ));
                     }
-                    match get(&attrs, "byte_order").unwrap_or("LittleEndian") {
+                    match get(attrs, "byte_order").unwrap_or("LittleEndian") {
                         "LittleEndian" => {}
                         "BigEndian" => {
                             layout.big_endian = true;
@@ -750,7 +750,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                             ));
                         }
                     }
-                    match get(&attrs, "header_type").unwrap_or("UInt32") {
+                    match get(attrs, "header_type").unwrap_or("UInt32") {
                         "UInt32" => {}
                         "UInt64" => {
                             layout.header_u64 = true;
@@ -763,7 +763,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                             ));
                         }
                     }
-                    let c = get(&attrs, "compressor").unwrap_or("");
+                    let c = get(attrs, "compressor").unwrap_or("");
                     layout.compressor = Compressor::parse(c).ok_or_else(|| {
                         err(
                             "<VTKFile> compressor",
@@ -778,7 +778,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 Tag::Piece => {
                     let count = |key: &str| -> Result<usize> {
-                        let v = get(&attrs, key).ok_or_else(|| {
+                        let v = get(attrs, key).ok_or_else(|| {
                             err(
                                 &format!("Piece {}", pieces.len()),
                                 format!("missing attribute {key}"),
@@ -824,15 +824,11 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
             continue;
         }
         match event {
-            Event::Text(t) => {
-                if stack.last() == Some(&Tag::DataArray) && current.is_some() {
-                    texts.push(text_bytes(t.into_inner()));
-                }
+            Event::Text(t) if stack.last() == Some(&Tag::DataArray) && current.is_some() => {
+                texts.push(text_bytes(t.into_inner()));
             }
-            Event::CData(t) => {
-                if stack.last() == Some(&Tag::DataArray) && current.is_some() {
-                    texts.push(text_bytes(t.into_inner()));
-                }
+            Event::CData(t) if stack.last() == Some(&Tag::DataArray) && current.is_some() => {
+                texts.push(text_bytes(t.into_inner()));
             }
             Event::End(_) => {
                 if stack.pop() == Some(Tag::DataArray)
