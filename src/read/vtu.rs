@@ -10,7 +10,10 @@
 //! All arrays are then decoded in parallel ([`super::decode`]).
 
 use std::borrow::Cow;
+use std::hash::{BuildHasher, Hasher};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use quick_xml::events::{BytesStart, Event};
 use rayon::prelude::*;
@@ -336,7 +339,11 @@ enum Source<'a> {
 struct ArraySpec<'a> {
     piece: usize,
     role: Role,
-    name: String,
+    /// Borrowed from the file for the points and cell arrays (unless it held a character
+    /// reference); owned for point and cell data, copied while the parser has it at hand.
+    name: Cow<'a, str>,
+    /// [`NameHashes`] hash of the name, for point and cell data.
+    hash: u64,
     scalar: Scalar,
     components: usize,
     component_names: Vec<String>,
@@ -380,9 +387,6 @@ enum Tag {
     Other,
 }
 
-/// A DataArray being read: its section, attributes and text segments so far.
-type OpenArray<'a> = (Tag, Attrs<'a>, Vec<Cow<'a, [u8]>>);
-
 /// Attributes of one element, borrowed from the file where no normalisation was needed.
 type Attrs<'a> = Vec<(Cow<'a, str>, Cow<'a, str>)>;
 
@@ -399,17 +403,75 @@ struct Appended<'a> {
 fn within<'a>(input: &'a [u8], part: &str) -> Option<&'a str> {
     let start = (part.as_ptr() as usize).checked_sub(input.as_ptr() as usize)?;
     let bytes = input.get(start..start.checked_add(part.len())?)?;
-    if bytes != part.as_bytes() {
-        return None;
-    }
+    // The same memory as `part` (live allocations do not overlap): no need to compare them.
+    debug_assert_eq!(bytes, part.as_bytes());
     std::str::from_utf8(bytes).ok()
 }
 
 /// The attributes of `e`, borrowed from `input` where possible (a file may hold many
 /// elements: one copy per attribute was most of the cost of reading many small arrays).
 fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attrs<'a>, String> {
+    let mut out = Vec::new();
+    attr_map_into(input, e, &mut out)?;
+    Ok(out)
+}
+
+/// The attributes in `raw` when they are all plain, `key="value"` or `key='value'` with
+/// distinct keys and values holding no `&`, `<`, tab, newline or carriage return, which is how
+/// writers write them: they are then exactly what quick-xml's parse and normalisation give
+/// (keys up to `=`, values unchanged), found in one scan. `false` (and `out` partly filled)
+/// for anything else, which quick-xml parses instead, with its own messages.
+fn plain_attributes<'a>(raw: &'a str, out: &mut Attrs<'a>) -> bool {
+    let b = raw.as_bytes();
+    let space = |c: u8| matches!(c, b' ' | b'\t' | b'\n' | b'\r');
+    let mut i = 0;
+    loop {
+        while i < b.len() && space(b[i]) {
+            i += 1;
+        }
+        if i == b.len() {
+            return true;
+        }
+        let key_start = i;
+        while i < b.len() && b[i] != b'=' && !space(b[i]) {
+            i += 1;
+        }
+        if i == key_start || i + 1 >= b.len() || b[i] != b'=' {
+            return false;
+        }
+        let key = &raw[key_start..i];
+        let quote = b[i + 1];
+        if quote != b'"' && quote != b'\'' {
+            return false;
+        }
+        let start = i + 2;
+        let Some(len) = memchr::memchr(quote, &b[start..]) else {
+            return false;
+        };
+        let value = &b[start..start + len];
+        if memchr::memchr3(b'&', b'<', b'\t', value).is_some()
+            || memchr::memchr2(b'\n', b'\r', value).is_some()
+            || out.iter().any(|(k, _)| k == key)
+        {
+            return false;
+        }
+        out.push((Cow::Borrowed(key), Cow::Borrowed(&raw[start..start + len])));
+        i = start + len + 1;
+    }
+}
+
+/// [`attr_map`] into `out` (cleared first), so that one buffer serves every element.
+fn attr_map_into<'a>(
+    input: &'a [u8],
+    e: &BytesStart<'_>,
+    out: &mut Attrs<'a>,
+) -> std::result::Result<(), String> {
+    out.clear();
     if let Some(raw) = within(input, e.attributes_raw()) {
-        let mut out = Vec::new();
+        if plain_attributes(raw, out) {
+            return Ok(());
+        }
+        out.clear();
         let mut ok = true;
         for a in quick_xml::events::attributes::Attributes::new(raw, 0) {
             let Ok(a) = a else {
@@ -423,11 +485,11 @@ fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attr
             out.push((Cow::Borrowed(a.key.0), value));
         }
         if ok {
-            return Ok(out);
+            return Ok(());
         }
         // An error: the messages (and their positions) are those of the element's own parse.
+        out.clear();
     }
-    let mut out = Vec::new();
     for a in e.attributes() {
         let a = a.map_err(|err| format!("malformed attribute ({err})"))?;
         let key = a.key.as_ref().to_string();
@@ -437,7 +499,7 @@ fn attr_map<'a>(input: &'a [u8], e: &BytesStart<'_>) -> std::result::Result<Attr
             .into_owned();
         out.push((Cow::Owned(key), Cow::Owned(value)));
     }
-    Ok(out)
+    Ok(())
 }
 
 fn get<'m>(attrs: &'m [(Cow<'_, str>, Cow<'_, str>)], key: &str) -> Option<&'m str> {
@@ -497,6 +559,64 @@ fn appended_section<'a>(
     })
 }
 
+/// What the later stages need to know of the specs, gathered as each is made (a file may hold
+/// many arrays: passes over all the specs afterwards were a tenth of the time of reading
+/// 50,000 arrays).
+#[derive(Default)]
+struct SpecIndex {
+    /// Formats in order of first appearance ("appended" stands for either appended format).
+    formats: Vec<&'static str>,
+    /// The first appended array, and the offsets of all.
+    first_appended: Option<usize>,
+    offsets: Vec<usize>,
+    /// By piece: structural arrays counted and the first of each, number of specs, point and
+    /// cell arrays counted.
+    counts: Vec<[usize; 4]>,
+    first: Vec<[usize; 4]>,
+    specs: Vec<usize>,
+    data: Vec<[usize; 2]>,
+}
+
+impl SpecIndex {
+    /// Records spec `s`, number `i`.
+    fn add(&mut self, s: &ArraySpec, i: usize) {
+        let f = match s.source {
+            Source::Ascii(_) => "ascii",
+            Source::Binary(_) => "binary",
+            Source::Appended(off) => {
+                self.first_appended.get_or_insert(i);
+                self.offsets.push(off);
+                "appended"
+            }
+        };
+        if !self.formats.contains(&f) {
+            self.formats.push(f);
+        }
+        self.pieces(s.piece + 1);
+        let p = s.piece;
+        self.specs[p] += 1;
+        match s.role.structural() {
+            Some(k) => {
+                self.counts[p][k] += 1;
+                if self.first[p][k] == usize::MAX {
+                    self.first[p][k] = i;
+                }
+            }
+            None => self.data[p][usize::from(s.role == Role::CellData)] += 1,
+        }
+    }
+
+    /// Makes room for `n` pieces.
+    fn pieces(&mut self, n: usize) {
+        if self.specs.len() < n {
+            self.counts.resize(n, [0; 4]);
+            self.first.resize(n, [usize::MAX; 4]);
+            self.specs.resize(n, 0);
+            self.data.resize(n, [0; 2]);
+        }
+    }
+}
+
 /// Parses the bytes of a VTU file (see [`read_vtu`]), with the global memory cap
 /// ([`crate::limits::max_alloc`]).
 pub fn parse_vtu(path: &Path, bytes: &[u8]) -> Result<VtuFile> {
@@ -532,8 +652,15 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
     };
     let mut pieces: Vec<PieceSpec> = Vec::new();
     let mut specs: Vec<ArraySpec> = Vec::new();
-    // The DataArray being read: its attributes and text segments.
-    let mut current: Option<OpenArray> = None;
+    let mut index = SpecIndex::default();
+    // The DataArray being read: its section; its attributes and text segments are in buffers
+    // kept from one array to the next (a file may hold many arrays), as are the attributes of
+    // the other elements.
+    let mut current: Option<Tag> = None;
+    let mut array_attrs: Attrs = Vec::new();
+    let mut texts: Vec<Cow<[u8]>> = Vec::new();
+    let mut scratch: Attrs = Vec::new();
+    let hashes = NameHashes::new();
 
     loop {
         let pos = reader.buffer_position();
@@ -588,12 +715,18 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 _ => Tag::Other,
             };
-            let attrs = attr_map(bytes, &e)
+            let attrs = if tag == Tag::DataArray {
+                &mut array_attrs
+            } else {
+                &mut scratch
+            };
+            attr_map_into(bytes, &e, attrs)
                 .map_err(|problem| err(&format!("<{name}> at byte {pos}"), problem))?;
+            let attrs = &*attrs;
             match tag {
                 Tag::File => {
                     seen_root = true;
-                    if let Some(t) = get(&attrs, "type")
+                    if let Some(t) = get(attrs, "type")
                         && t != "UnstructuredGrid"
                     {
                         return Err(err(
@@ -604,7 +737,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                             ),
                         ));
                     }
-                    match get(&attrs, "byte_order").unwrap_or("LittleEndian") {
+                    match get(attrs, "byte_order").unwrap_or("LittleEndian") {
                         "LittleEndian" => {}
                         "BigEndian" => {
                             layout.big_endian = true;
@@ -617,7 +750,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                             ));
                         }
                     }
-                    match get(&attrs, "header_type").unwrap_or("UInt32") {
+                    match get(attrs, "header_type").unwrap_or("UInt32") {
                         "UInt32" => {}
                         "UInt64" => {
                             layout.header_u64 = true;
@@ -630,7 +763,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                             ));
                         }
                     }
-                    let c = get(&attrs, "compressor").unwrap_or("");
+                    let c = get(attrs, "compressor").unwrap_or("");
                     layout.compressor = Compressor::parse(c).ok_or_else(|| {
                         err(
                             "<VTKFile> compressor",
@@ -645,7 +778,7 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 Tag::Piece => {
                     let count = |key: &str| -> Result<usize> {
-                        let v = get(&attrs, key).ok_or_else(|| {
+                        let v = get(attrs, key).ok_or_else(|| {
                             err(
                                 &format!("Piece {}", pieces.len()),
                                 format!("missing attribute {key}"),
@@ -665,13 +798,22 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 }
                 Tag::DataArray => {
                     let section = parent.unwrap_or(Tag::Other);
+                    texts.clear();
                     if empty {
-                        let spec = finish_array(path, pieces.len(), section, attrs, Vec::new())?;
+                        let spec = finish_array(
+                            path,
+                            pieces.len(),
+                            section,
+                            &mut array_attrs,
+                            &mut texts,
+                            &hashes,
+                        )?;
                         if let Some(s) = spec {
+                            index.add(&s, specs.len());
                             specs.push(s);
                         }
                     } else {
-                        current = Some((section, attrs, Vec::new()));
+                        current = Some(section);
                     }
                 }
                 _ => {}
@@ -682,25 +824,25 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
             continue;
         }
         match event {
-            Event::Text(t) => {
-                if stack.last() == Some(&Tag::DataArray)
-                    && let Some((_, _, texts)) = current.as_mut()
-                {
-                    texts.push(text_bytes(t.into_inner()));
-                }
+            Event::Text(t) if stack.last() == Some(&Tag::DataArray) && current.is_some() => {
+                texts.push(text_bytes(t.into_inner()));
             }
-            Event::CData(t) => {
-                if stack.last() == Some(&Tag::DataArray)
-                    && let Some((_, _, texts)) = current.as_mut()
-                {
-                    texts.push(text_bytes(t.into_inner()));
-                }
+            Event::CData(t) if stack.last() == Some(&Tag::DataArray) && current.is_some() => {
+                texts.push(text_bytes(t.into_inner()));
             }
             Event::End(_) => {
                 if stack.pop() == Some(Tag::DataArray)
-                    && let Some((section, attrs, texts)) = current.take()
-                    && let Some(s) = finish_array(path, pieces.len(), section, attrs, texts)?
+                    && let Some(section) = current.take()
+                    && let Some(s) = finish_array(
+                        path,
+                        pieces.len(),
+                        section,
+                        &mut array_attrs,
+                        &mut texts,
+                        &hashes,
+                    )?
                 {
+                    index.add(&s, specs.len());
                     specs.push(s);
                 }
             }
@@ -736,50 +878,40 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
         return Err(err("<UnstructuredGrid>", "has no <Piece>".into()));
     }
 
-    let mut formats: Vec<&str> = Vec::new();
-    for s in &specs {
-        let f = match s.source {
-            Source::Ascii(_) => "ascii",
-            Source::Binary(_) => "binary",
-            Source::Appended(off) => {
-                let Some(a) = appended.as_mut() else {
-                    return Err(err(
-                        &s.place(pieces.len()),
-                        "format is \"appended\" but the file has no <AppendedData> section".into(),
-                    ));
-                };
-                a.offsets.push(off);
-                if a.base64 {
-                    "appended base64"
-                } else {
-                    "appended raw"
-                }
-            }
+    index.pieces(pieces.len());
+    if let Some(i) = index.first_appended {
+        let Some(a) = appended.as_mut() else {
+            return Err(err(
+                &specs[i].place(pieces.len()),
+                "format is \"appended\" but the file has no <AppendedData> section".into(),
+            ));
         };
-        if !formats.contains(&f) {
-            formats.push(f);
-        }
-    }
-    if let Some(a) = appended.as_mut() {
+        a.offsets = std::mem::take(&mut index.offsets);
         a.offsets.sort_unstable();
         a.offsets.dedup();
     }
-    format.data_formats = formats.iter().map(|s| s.to_string()).collect();
+    let appended_name = match &appended {
+        Some(a) if a.base64 => "appended base64",
+        _ => "appended raw",
+    };
+    format.data_formats = index
+        .formats
+        .iter()
+        .map(|&f| if f == "appended" { appended_name } else { f }.to_string())
+        .collect();
     format.pieces = pieces.len();
 
-    // Every piece needs points and the three cell arrays (counted in one pass: a file may
-    // hold many pieces).
-    let mut counts = vec![[0usize; 4]; pieces.len()];
-    for s in &specs {
-        if let Some(k) = s.role.structural() {
-            counts[s.piece][k] += 1;
-        }
-    }
+    // Every piece needs points and the three cell arrays (counted as the specs were made: a
+    // file may hold many pieces).
+    let counts = &index.counts;
     for (p, piece) in pieces.iter().enumerate() {
-        let place = if pieces.len() > 1 {
-            format!("Piece {p}")
-        } else {
-            "Piece".to_string()
+        // Only built for a message (a file may hold many pieces).
+        let place = || {
+            if pieces.len() > 1 {
+                format!("Piece {p}")
+            } else {
+                "Piece".to_string()
+            }
         };
         for (role, what) in [
             (Role::Points, "a Points array"),
@@ -793,31 +925,51 @@ pub fn parse_vtu_with(path: &Path, bytes: &[u8], budget: &Budget) -> Result<VtuF
                 _ => piece.cells > 0,
             };
             if n == 0 && needed {
-                return Err(err(&place, format!("has no {what}")));
+                return Err(err(&place(), format!("has no {what}")));
             }
             if n > 1 {
-                return Err(err(&place, format!("has more than one {what}")));
+                return Err(err(&place(), format!("has more than one {what}")));
             }
         }
     }
 
-    // Decode all arrays in parallel.
+    // Decode all arrays in parallel, straight into their places (an indexed collect: no list
+    // of chunks to concatenate). The first failing array in file order is reported, whatever
+    // the threads' timing, and the arrays after it are skipped.
     let npieces = pieces.len();
-    let decoded: Vec<Decoded> = specs
+    let first_failed = AtomicUsize::new(usize::MAX);
+    let failure: Mutex<Option<(usize, String)>> = Mutex::new(None);
+    let decoded: Vec<Option<Decoded>> = specs
         .par_iter()
-        .map(|s| {
+        .enumerate()
+        .map(|(i, s)| {
+            if i > first_failed.load(Ordering::Relaxed) {
+                return None;
+            }
             let piece = &pieces[s.piece];
             let tuples = match s.role {
                 Role::Points | Role::PointData => Some(piece.points),
                 Role::Offsets | Role::Types | Role::CellData => Some(piece.cells),
                 Role::Connectivity => None,
             };
-            decode_array(s, tuples, &layout, appended.as_ref(), budget)
-                .map_err(|problem| err(&s.place(npieces), problem))
+            match decode_array(s, tuples, &layout, appended.as_ref(), budget) {
+                Ok(d) => Some(d),
+                Err(problem) => {
+                    first_failed.fetch_min(i, Ordering::Relaxed);
+                    let mut f = failure.lock().unwrap_or_else(|e| e.into_inner());
+                    if f.as_ref().is_none_or(|&(k, _)| i < k) {
+                        *f = Some((i, problem));
+                    }
+                    None
+                }
+            }
         })
-        .collect::<Result<_>>()?;
+        .collect();
+    if let Some((i, problem)) = failure.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(err(&specs[i].place(npieces), problem));
+    }
 
-    assemble(path, &pieces, &specs, decoded, format)
+    assemble(path, &pieces, &mut specs, &index, decoded, format)
 }
 
 enum Decoded {
@@ -836,19 +988,24 @@ fn true_value(v: i64, index: usize, big: Option<(usize, u64)>) -> String {
 }
 
 /// Turns a DataArray's attributes and text into a spec; `None` for arrays fosls does not use
-/// (polyhedron faces).
+/// (polyhedron faces). The name and the text are moved out of `attrs` and `texts`, which the
+/// caller reuses.
 fn finish_array<'a>(
     path: &Path,
     piece_count: usize,
     section: Tag,
-    attrs: Attrs<'a>,
-    texts: Vec<Cow<'a, [u8]>>,
+    attrs: &mut Attrs<'a>,
+    texts: &mut Vec<Cow<'a, [u8]>>,
+    hashes: &NameHashes,
 ) -> Result<Option<ArraySpec<'a>>> {
     let piece = piece_count.saturating_sub(1);
-    let name = get(&attrs, "Name").unwrap_or("").to_string();
+    let name: Cow<'a, str> = match attrs.iter_mut().find(|(k, _)| k == "Name") {
+        Some((_, v)) => std::mem::take(v),
+        None => Cow::Borrowed(""),
+    };
     let role = match section {
         Tag::Points => Role::Points,
-        Tag::Cells => match name.as_str() {
+        Tag::Cells => match name.as_ref() {
             "connectivity" => Role::Connectivity,
             "offsets" => Role::Offsets,
             "types" => Role::Types,
@@ -857,22 +1014,30 @@ fn finish_array<'a>(
         Tag::PointData => Role::PointData,
         _ => Role::CellData,
     };
-    let mut spec = ArraySpec {
-        piece,
-        role,
-        name,
-        scalar: Scalar::Float64,
-        components: 1,
-        component_names: Vec::new(),
-        source: Source::Appended(0),
-    };
+    // The other attributes fosls reads, in one pass (the first of each key, as `get` finds).
+    let (mut ty, mut comps, mut form, mut offset, mut named) = (None, None, None, None, false);
+    for (k, v) in attrs.iter() {
+        let slot = match k.as_ref() {
+            "type" => &mut ty,
+            "NumberOfComponents" => &mut comps,
+            "format" => &mut form,
+            "offset" => &mut offset,
+            k => {
+                named |= k.starts_with("ComponentName");
+                continue;
+            }
+        };
+        if slot.is_none() {
+            *slot = Some(v.as_ref());
+        }
+    }
     // The place is only built for a message (a file may hold many arrays).
-    let name_in_file = get(&attrs, "Name").unwrap_or("");
     let err = |problem: String| {
         let named = ArraySpec {
             piece,
             role,
-            name: name_in_file.to_string(),
+            name: Cow::Borrowed(name.as_ref()),
+            hash: 0,
             scalar: Scalar::Float64,
             components: 1,
             component_names: Vec::new(),
@@ -880,13 +1045,14 @@ fn finish_array<'a>(
         };
         Error::input(path, named.place(piece_count), problem)
     };
-    if matches!(role, Role::PointData | Role::CellData) && spec.name.is_empty() {
+    if matches!(role, Role::PointData | Role::CellData) && name.is_empty() {
         return Err(err("has no Name attribute".into()));
     }
-    let ty = get(&attrs, "type").ok_or_else(|| err("missing attribute type".into()))?;
-    spec.scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type {}", quote(ty))))?;
-    if let Some(c) = get(&attrs, "NumberOfComponents") {
-        spec.components = c
+    let ty = ty.ok_or_else(|| err("missing attribute type".into()))?;
+    let scalar = Scalar::parse(ty).ok_or_else(|| err(format!("unknown type {}", quote(ty))))?;
+    let mut components = 1;
+    if let Some(c) = comps {
+        components = c
             .trim()
             .parse::<usize>()
             .ok()
@@ -899,41 +1065,43 @@ fn finish_array<'a>(
             })?;
     }
     // Component names by index, in one pass over the attributes (an element may hold many).
-    let named = attrs.iter().any(|(k, _)| k.starts_with("ComponentName"));
-    let mut names: Vec<Option<&str>> = vec![None; if named { spec.components } else { 0 }];
-    for (k, v) in &attrs {
-        if let Some(i) = k
-            .strip_prefix("ComponentName")
-            .and_then(|i| i.parse::<usize>().ok().filter(|n| n.to_string() == i))
-            && i < names.len()
-            && names[i].is_none()
-        {
-            names[i] = Some(v.as_ref());
+    let mut component_names = Vec::new();
+    if named {
+        let mut names: Vec<Option<&str>> = vec![None; components];
+        for (k, v) in attrs.iter() {
+            if let Some(i) = k
+                .strip_prefix("ComponentName")
+                .and_then(|i| i.parse::<usize>().ok().filter(|n| n.to_string() == i))
+                && i < names.len()
+                && names[i].is_none()
+            {
+                names[i] = Some(v.as_ref());
+            }
+        }
+        for n in names {
+            match n {
+                Some(n) => component_names.push(n.to_string()),
+                None => break,
+            }
+        }
+        if component_names.len() != components {
+            component_names.clear();
         }
     }
-    for n in names {
-        match n {
-            Some(n) => spec.component_names.push(n.to_string()),
-            None => break,
-        }
-    }
-    if spec.component_names.len() != spec.components {
-        spec.component_names.clear();
-    }
-    let text = || -> Cow<'a, [u8]> {
-        let mut texts = texts;
+    let mut text = || -> Cow<'a, [u8]> {
         if texts.len() == 1 {
             texts.pop().unwrap_or_default()
         } else {
-            Cow::Owned(texts.concat())
+            let joined = Cow::Owned(texts.concat());
+            texts.clear();
+            joined
         }
     };
-    spec.source = match get(&attrs, "format").unwrap_or("ascii") {
+    let source = match form.unwrap_or("ascii") {
         "ascii" => Source::Ascii(text()),
         "binary" => Source::Binary(text()),
         "appended" => {
-            let off =
-                get(&attrs, "offset").ok_or_else(|| err("appended array without offset".into()))?;
+            let off = offset.ok_or_else(|| err("appended array without offset".into()))?;
             Source::Appended(off.trim().parse::<usize>().map_err(|_| {
                 err(format!(
                     "offset {} is not a non-negative integer",
@@ -948,7 +1116,23 @@ fn finish_array<'a>(
             )));
         }
     };
-    Ok(Some(spec))
+    let (name, hash) = match role {
+        Role::PointData | Role::CellData => {
+            let hash = hashes.hash_one(name.as_ref());
+            (Cow::Owned(name.into_owned()), hash)
+        }
+        _ => (name, 0),
+    };
+    Ok(Some(ArraySpec {
+        piece,
+        role,
+        name,
+        hash,
+        scalar,
+        components,
+        component_names,
+        source,
+    }))
 }
 
 fn decode_array(
@@ -1089,11 +1273,142 @@ fn check_count(
     }
 }
 
+/// Hashes of array names for [`assemble`]'s map: a folded multiply per 8 bytes with keys drawn
+/// for each file from the standard library's random state (whose SipHash was an eighth of the
+/// time of reading 50,000 arrays). The keys are secret, so a file cannot choose names that
+/// collide; a collision would only cost time, never a wrong result.
+#[derive(Clone, Copy)]
+struct NameHashes {
+    seed: u64,
+    k1: u64,
+    k2: u64,
+}
+
+impl NameHashes {
+    fn new() -> NameHashes {
+        let random = std::hash::RandomState::new();
+        NameHashes {
+            seed: random.hash_one(1u64),
+            k1: random.hash_one(2u64),
+            k2: random.hash_one(3u64) | 1,
+        }
+    }
+}
+
+impl BuildHasher for NameHashes {
+    type Hasher = NameHasher;
+    fn build_hasher(&self) -> NameHasher {
+        NameHasher {
+            h: self.seed,
+            k1: self.k1,
+            k2: self.k2,
+        }
+    }
+}
+
+struct NameHasher {
+    h: u64,
+    k1: u64,
+    k2: u64,
+}
+
+impl NameHasher {
+    fn mix(&mut self, w: u64) {
+        let p = u128::from(self.h ^ w ^ self.k1) * u128::from(self.k2);
+        self.h = (p as u64) ^ ((p >> 64) as u64);
+    }
+}
+
+impl Hasher for NameHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            let mut w = [0u8; 8];
+            w.copy_from_slice(c);
+            self.mix(u64::from_le_bytes(w));
+        }
+        let rest = chunks.remainder();
+        let mut w = [0u8; 8];
+        w[..rest.len()].copy_from_slice(rest);
+        self.mix(u64::from_le_bytes(w) ^ ((rest.len() as u64) << 59));
+    }
+
+    fn write_u8(&mut self, i: u8) {
+        self.mix(u64::from(i) ^ (1 << 63));
+    }
+
+    fn finish(&self) -> u64 {
+        let p = u128::from(self.h ^ self.k2) * u128::from(self.k1 | 1);
+        (p as u64) ^ ((p >> 64) as u64)
+    }
+}
+
+/// An array name with its hash, computed while the parser had the name at hand (hashing it
+/// again here, from memory long out of the cache, was most of the cost of the name map).
+struct NameKey<'s> {
+    hash: u64,
+    name: &'s str,
+}
+
+impl<'s> NameKey<'s> {
+    fn of(s: &'s ArraySpec) -> NameKey<'s> {
+        NameKey {
+            hash: s.hash,
+            name: s.name.as_ref(),
+        }
+    }
+}
+
+impl PartialEq for NameKey<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.hash == other.hash && self.name == other.name
+    }
+}
+
+impl Eq for NameKey<'_> {}
+
+impl std::hash::Hash for NameKey<'_> {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        state.write_u64(self.hash);
+    }
+}
+
+/// Hashes a [`NameKey`] to its kept hash.
+#[derive(Clone, Copy, Default)]
+struct KeptHash;
+
+impl BuildHasher for KeptHash {
+    type Hasher = Kept;
+    fn build_hasher(&self) -> Kept {
+        Kept(0)
+    }
+}
+
+struct Kept(u64);
+
+impl Hasher for Kept {
+    fn write(&mut self, bytes: &[u8]) {
+        // Only `write_u64` is used; anything else is folded in.
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ u64::from(b);
+        }
+    }
+
+    fn write_u64(&mut self, i: u64) {
+        self.0 ^= i;
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
 fn assemble(
     path: &Path,
     pieces: &[PieceSpec],
-    specs: &[ArraySpec],
-    decoded: Vec<Decoded>,
+    specs: &mut [ArraySpec],
+    index: &SpecIndex,
+    mut decoded: Vec<Option<Decoded>>,
     mut format: FileFormat,
 ) -> Result<VtuFile> {
     let err = |place: &str, problem: String| Error::input(path, place, problem);
@@ -1116,16 +1431,15 @@ fn assemble(
         piece_points: Vec::new(),
         format: FileFormat::default(),
     };
-    let mut decoded: Vec<Option<Decoded>> = decoded.into_iter().map(Some).collect();
-    // Arrays by piece, built in one pass (a file may hold many pieces and many arrays).
-    let mut first = vec![[usize::MAX; 4]; pieces.len()];
-    let mut data_arrays: Vec<[Vec<usize>; 2]> = vec![[Vec::new(), Vec::new()]; pieces.len()];
-    for (i, s) in specs.iter().enumerate() {
-        match s.role.structural() {
-            Some(k) if first[s.piece][k] == usize::MAX => first[s.piece][k] = i,
-            Some(_) => {}
-            None => data_arrays[s.piece][usize::from(s.role == Role::CellData)].push(i),
-        }
+    // Arrays by piece (a file may hold many pieces and many arrays): the specs are in file
+    // order, so those of piece `p` are `specs[starts[p]..starts[p + 1]]`, with `data[p]` point
+    // and cell arrays.
+    let first = &index.first;
+    let data = &index.data;
+    let mut starts = Vec::with_capacity(pieces.len() + 1);
+    starts.push(0);
+    for n in &index.specs {
+        starts.push(starts.last().copied().unwrap_or(0) + n);
     }
     let mut take = |p: usize, role: Role| -> Option<(usize, Decoded)> {
         let i = first[p][role.structural()?];
@@ -1181,15 +1495,16 @@ fn assemble(
             else {
                 return Err(err("Cells", "types are not integers".into()));
             };
-            let oplace = specs[oi].place(npieces);
-            let cplace = specs[ci].place(npieces);
-            let tplace = specs[ti].place(npieces);
+            // The places are only built for a message (a file may hold many pieces).
+            let oplace = || specs[oi].place(npieces);
+            let cplace = || specs[ci].place(npieces);
+            let tplace = || specs[ti].place(npieces);
             let conn_base = file.connectivity.len();
             let mut prev = 0i64;
             for (c, &o) in offsets.iter().enumerate() {
                 if o < prev || o > conn.len() as i64 {
                     return Err(err(
-                        &oplace,
+                        &oplace(),
                         format!(
                             "offset {} of cell {c} is {} (connectivity has {} entries)",
                             true_value(o, c, obig),
@@ -1208,7 +1523,7 @@ fn assemble(
                 let known = kind.map(cell_type::fixed_nodes);
                 if known.is_none() || known == Some(Some(0)) {
                     return Err(err(
-                        &tplace,
+                        &tplace(),
                         format!(
                             "cell {cell} has unsupported VTK cell type {t} ({}); fosls reads \
                              vertices (1), lines (3), triangles (5), quads (9), quadratic edges \
@@ -1223,7 +1538,7 @@ fn assemble(
                     && count != nodes
                 {
                     return Err(err(
-                        &oplace,
+                        &oplace(),
                         format!(
                             "cell {cell} ({}) has {count} nodes, expected {nodes}",
                             cell_type::name(t as u8),
@@ -1231,7 +1546,7 @@ fn assemble(
                     ));
                 }
                 if count == 0 {
-                    return Err(err(&oplace, format!("cell {cell} has no nodes")));
+                    return Err(err(&oplace(), format!("cell {cell} has no nodes")));
                 }
                 file.types.push(t as u8);
                 file.offsets.push(conn_base + o as usize);
@@ -1239,14 +1554,14 @@ fn assemble(
             }
             if prev as usize != conn.len() {
                 return Err(err(
-                    &cplace,
+                    &cplace(),
                     format!("has {} entries but the offsets end at {prev}", conn.len()),
                 ));
             }
             for (k, &v) in conn.iter().enumerate() {
                 if v < 0 || v as usize >= piece.points {
                     return Err(err(
-                        &cplace,
+                        &cplace(),
                         format!(
                             "entry {k} refers to point {}, but the piece has {} points",
                             true_value(v, k, cbig),
@@ -1261,18 +1576,24 @@ fn assemble(
     }
 
     // Point and cell arrays: the first piece sets names and components, the others must match.
-    for role in [Role::PointData, Role::CellData] {
-        let mut merged: Vec<DataArray> = Vec::new();
-        let mut by_name: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
-        for (p, arrays) in data_arrays.iter_mut().enumerate() {
-            let mine = std::mem::take(&mut arrays[usize::from(role == Role::CellData)]);
-            let mut seen_here = std::collections::HashSet::new();
-            if p > 0 && mine.len() != merged.len() {
+    // Names are hashed once, in piece 0; a later piece marks each array it meets with its own
+    // number, so a name met twice in one piece is found without a set per piece.
+    for (r, role) in [Role::PointData, Role::CellData].into_iter().enumerate() {
+        // (spec, values) of each array of piece 0, in file order.
+        let mut merged: Vec<(usize, Vec<f64>)> = Vec::new();
+        let mut by_name: std::collections::HashMap<NameKey, usize, KeptHash> =
+            std::collections::HashMap::with_capacity_and_hasher(
+                data.first().map_or(0, |d| d[r]),
+                KeptHash,
+            );
+        let mut seen_in: Vec<usize> = Vec::new();
+        for p in 0..npieces {
+            let count = data[p][r];
+            if p > 0 && count != merged.len() {
                 return Err(err(
                     &format!("Piece {p}"),
                     format!(
-                        "has {} {} arrays, piece 0 has {}",
-                        mine.len(),
+                        "has {count} {} arrays, piece 0 has {}",
                         if role == Role::PointData {
                             "point"
                         } else {
@@ -1282,43 +1603,61 @@ fn assemble(
                     ),
                 ));
             }
-            for i in mine {
+            for i in starts[p]..starts[p + 1] {
                 let s = &specs[i];
+                if s.role != role {
+                    continue;
+                }
                 let Some(Decoded::Float(values)) = decoded[i].take() else {
                     continue;
                 };
-                if !seen_here.insert(s.name.as_str()) {
+                if p == 0 {
+                    if by_name.insert(NameKey::of(s), merged.len()).is_some() {
+                        return Err(err(&s.place(npieces), "appears twice".into()));
+                    }
+                    merged.push((i, values));
+                    continue;
+                }
+                let Some(&k) = by_name.get(&NameKey::of(s)) else {
+                    return Err(err(&s.place(npieces), "is not in piece 0".into()));
+                };
+                if seen_in[k] == p {
                     return Err(err(&s.place(npieces), "appears twice".into()));
                 }
-                if p == 0 {
-                    by_name.insert(s.name.as_str(), merged.len());
-                    merged.push(DataArray {
-                        name: s.name.clone(),
-                        scalar: s.scalar,
-                        components: s.components,
-                        component_names: s.component_names.clone(),
-                        values,
-                    });
-                } else {
-                    let Some(a) = by_name.get(s.name.as_str()).map(|&k| &mut merged[k]) else {
-                        return Err(err(&s.place(npieces), "is not in piece 0".into()));
-                    };
-                    if a.components != s.components {
-                        return Err(err(
-                            &s.place(npieces),
-                            format!(
-                                "has {} components, {} in piece 0",
-                                s.components, a.components
-                            ),
-                        ));
-                    }
-                    a.values.extend_from_slice(&values);
+                seen_in[k] = p;
+                let (a, into) = &mut merged[k];
+                let components = specs[*a].components;
+                if components != s.components {
+                    return Err(err(
+                        &s.place(npieces),
+                        format!("has {} components, {components} in piece 0", s.components),
+                    ));
                 }
+                into.extend_from_slice(&values);
+            }
+            if p == 0 {
+                seen_in = vec![0; merged.len()];
             }
         }
+        drop(by_name);
+        // The names and component names move from the specs: one copy, only of names that
+        // were not borrowed from the file.
+        let arrays = merged
+            .into_iter()
+            .map(|(i, values)| {
+                let s = &mut specs[i];
+                DataArray {
+                    name: std::mem::take(&mut s.name).into_owned(),
+                    scalar: s.scalar,
+                    components: s.components,
+                    component_names: std::mem::take(&mut s.component_names),
+                    values,
+                }
+            })
+            .collect();
         match role {
-            Role::PointData => file.point_data = merged,
-            _ => file.cell_data = merged,
+            Role::PointData => file.point_data = arrays,
+            _ => file.cell_data = arrays,
         }
     }
     file.format = format;
@@ -1484,6 +1823,55 @@ _"#,
                 data.len() + 1
             )
         );
+    }
+
+    /// The one-scan parse of plain attributes gives what quick-xml gives, and leaves anything
+    /// else to quick-xml.
+    #[test]
+    fn plain_attributes_match_quick_xml() {
+        let quick = |raw: &str| -> Option<Vec<(String, String)>> {
+            quick_xml::events::attributes::Attributes::new(raw, 0)
+                .map(|a| {
+                    let a = a.ok()?;
+                    let v = a
+                        .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                        .ok()?;
+                    Some((a.key.0.to_string(), v.into_owned()))
+                })
+                .collect()
+        };
+        let cases = [
+            (" type=\"Float64\" Name=\"a0\" format=\"ascii\"", true),
+            ("", true),
+            ("   ", true),
+            (" a='1'\tb=\"x y\"\n", true),
+            (" a=\"1\"b=\"2\"", true),
+            (" a=\"\"", true),
+            (" a=\"é≠\" é=\"'\"", true),
+            (" a=\"1\" a=\"2\"", false),
+            (" a = \"1\"", false),
+            (" a=1", false),
+            (" a=\"1", false),
+            (" a", false),
+            (" =\"1\"", false),
+            (" a=\"&amp;\"", false),
+            (" a=\"x\ny\"", false),
+            (" a=\"x\ty\"", false),
+            (" a=\"x\ry\"", false),
+            (" a=\"<\"", false),
+            (" a=\"1\" /", false),
+        ];
+        for (raw, plain) in cases {
+            let mut out = Vec::new();
+            assert_eq!(plain_attributes(raw, &mut out), plain, "{raw:?}");
+            if plain {
+                let mine: Vec<(String, String)> = out
+                    .iter()
+                    .map(|(k, v)| (k.to_string(), v.to_string()))
+                    .collect();
+                assert_eq!(Some(mine), quick(raw), "{raw:?}");
+            }
+        }
     }
 
     #[test]
