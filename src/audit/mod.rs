@@ -263,6 +263,33 @@ fn condition_warning(info: &crate::solve::SolveInfo, what: &str) -> Option<Strin
     })
 }
 
+/// The body to audit and the dataset and topology cut down to it (docs/design.md §4.2): a
+/// one-body file without `[body]` is returned as it is.
+fn choose_body(
+    data: mesh::Dataset,
+    topo: topology::Topology,
+    scene: &Scene,
+    found: crate::bodies::Bodies,
+) -> Result<(mesh::Dataset, topology::Topology, crate::bodies::Choice), Error> {
+    let full = if found.list.len() > 1 && scene.body.is_none() {
+        Some(problem::classify(&data, &topo, scene)?)
+    } else {
+        None
+    };
+    let (b, by) = crate::bodies::choose(&data, &found, scene, full.as_ref())?;
+    let choice = crate::bodies::Choice {
+        list: found.list.clone(),
+        audited: b,
+        selected_by: by.to_string(),
+    };
+    if found.list.len() == 1 {
+        return Ok((data, topo, choice));
+    }
+    let data = crate::bodies::restrict(&data, &found, b);
+    let topo = topology::build(&data)?;
+    Ok((data, topo, choice))
+}
+
 /// Runs the audit (steps 1–5 of the module doc).
 pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     opts.validate()?;
@@ -300,8 +327,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         }
         Some(n) => n,
     };
+    // Several bodies: choose one and cut the mesh down to it, so that every later stage sees
+    // one body (docs/design.md §4.2 "Bodies").
+    let found = crate::bodies::find(&data.mesh);
+    let (data, topo, body) = choose_body(data, topo, &scene, found)?;
     let fields = problem::select_fields(&data, &scene)?;
     let boundaries = problem::classify(&data, &topo, &scene)?;
+    crate::bodies::check_supported(&data, &body.list[body.audited], &scene, &boundaries)?;
     lap("scene and fields", &mut stages);
 
     finite::check_inputs(&data, &fields, &scene, &boundaries.edges)?;
@@ -509,6 +541,15 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         cells: report::mark::dorfler(&report::eta_squared(&est.cells), theta),
     });
     let mut notes = fields.notes.clone();
+    if body.list.len() > 1 {
+        notes.push(format!(
+            "the file holds {} bodies (connected components of the cells); audited {}, chosen \
+             by {}; the others are not part of the audit",
+            body.list.len(),
+            body.list[body.audited].describe(),
+            body.selected_by
+        ));
+    }
     notes.extend(boundaries.notes.iter().cloned());
     if let Some(m) = &data.report.merge {
         notes.push(format!(
@@ -643,6 +684,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             .collect(),
         marked,
         projection_distance: projection.as_ref().map(|p| p.distance),
+        bodies: body,
     };
 
     let nodal_stress = match (&fields.stress, &reconstruction) {

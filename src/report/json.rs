@@ -53,6 +53,9 @@ pub struct Report {
     pub marked: Option<Marked>,
     pub stages: Vec<Stage>,
     pub notes: Vec<String>,
+    /// The bodies (connected components of the cells) of the file and the audited one.
+    #[serde(default)]
+    pub bodies: Option<crate::bodies::Choice>,
 }
 
 /// F and its terms.
@@ -312,6 +315,7 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
         }),
         stages: run.stages.clone(),
         notes: run.notes.clone(),
+        bodies: Some(run.bodies.clone()),
     }
 }
 
