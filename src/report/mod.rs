@@ -367,6 +367,7 @@ pub(crate) mod fixture {
             ],
             marked: None,
             projection_distance: None,
+            bodies: crate::bodies::Choice::default(),
         }
     }
 }
