@@ -290,6 +290,24 @@ fn choose_body(
     Ok((data, topo, choice))
 }
 
+/// A solver failure with the hint that fits the material: a free constant pressure is named
+/// only near the incompressible limit (ν ≥ [`crate::tolerance::NEAR_INCOMPRESSIBLE_NU`]).
+fn with_hint(problem: String, scene: &Scene) -> String {
+    let nu = scene.material.poisson_ratio;
+    if !problem.contains("not positive definite") {
+        problem
+    } else if nu >= crate::tolerance::NEAR_INCOMPRESSIBLE_NU {
+        format!(
+            "{problem} (at ν = {nu}, near the incompressible limit 0.5, a constant pressure is \
+             free unless a traction boundary fixes it)"
+        )
+    } else {
+        format!(
+            "{problem} (ν = {nu}: check that the Dirichlet and contact boundaries hold the body)"
+        )
+    }
+}
+
 /// Runs the audit (steps 1–5 of the module doc).
 pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     opts.validate()?;
@@ -375,7 +393,11 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             progress.stage("reconstructing the displacement");
             let r = reconstruct::displacement::reconstruct(&ctx, StressField::Nodal(values))
                 .map_err(|problem| {
-                    Error::input(&opts.file, "displacement reconstruction", problem)
+                    Error::input(
+                        &opts.file,
+                        "displacement reconstruction",
+                        with_hint(problem, &scene),
+                    )
                 })?;
             progress.done();
             lap("reconstruct displacement", &mut stages);
@@ -386,8 +408,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let projection = match file_u {
         Some(fu) if rebuilt.is_none() && violations > 0 && opts.displacement == Source::Auto => {
             progress.stage("projecting the displacement onto K_u");
-            let p = reconstruct::projection::project(&ctx, fu)
-                .map_err(|problem| Error::input(&opts.file, "displacement projection", problem))?;
+            let p = reconstruct::projection::project(&ctx, fu).map_err(|problem| {
+                Error::input(
+                    &opts.file,
+                    "displacement projection",
+                    with_hint(problem, &scene),
+                )
+            })?;
             progress.done();
             lap("project displacement", &mut stages);
             Some(p)
@@ -457,8 +484,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         None => None,
         Some(_) => {
             progress.stage("reconstructing the stress");
-            let r = reconstruct::stress::reconstruct(&ctx, u, order)
-                .map_err(|problem| Error::input(&opts.file, "stress reconstruction", problem))?;
+            let r = reconstruct::stress::reconstruct(&ctx, u, order).map_err(|problem| {
+                Error::input(
+                    &opts.file,
+                    "stress reconstruction",
+                    with_hint(problem, &scene),
+                )
+            })?;
             progress.done();
             lap("reconstruct stress", &mut stages);
             Some(r)
@@ -737,6 +769,30 @@ pub fn output_files(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn incompressibility_hint_only_near_nu_one_half() {
+        let text = |nu: f64| {
+            format!(
+                "[material]\nyoungs_modulus = 1.0\npoisson_ratio = {nu}\n\
+                 [estimate]\nnorm = \"robust\"\n"
+            )
+        };
+        let scene = |nu: f64| scene::parse_scene(Path::new("s.toml"), &text(nu)).unwrap();
+        let failed = "the reconstruction matrix is not positive definite (x)".to_string();
+        assert_eq!(
+            with_hint(failed.clone(), &scene(0.28)),
+            "the reconstruction matrix is not positive definite (x) (ν = 0.28: check that the \
+             Dirichlet and contact boundaries hold the body)"
+        );
+        assert_eq!(
+            with_hint(failed, &scene(0.5)),
+            "the reconstruction matrix is not positive definite (x) (at ν = 0.5, near the \
+             incompressible limit 0.5, a constant pressure is free unless a traction boundary \
+             fixes it)"
+        );
+        assert_eq!(with_hint("other".into(), &scene(0.5)), "other");
+    }
 
     #[test]
     fn warning_only_above_the_threshold() {
