@@ -291,10 +291,9 @@ fn body_errors_are_one_line() {
         ),
         (
             "loose.toml",
-            format!(
-                "[body]\nindex = 1\n[[boundary]]\nname = \"pull\"\nwhere = \"x > 2.999\"\n\
-                 kind = \"neumann\"\ntraction = [1.0, 0.0]\n"
-            ),
+            "[body]\nindex = 1\n[[boundary]]\nname = \"pull\"\nwhere = \"x > 2.999\"\n\
+             kind = \"neumann\"\ntraction = [1.0, 0.0]\n"
+                .to_string(),
             format!(
                 "{d}/loose.toml: boundary: {BODY1} of {d}/two.vtu is floating: no Dirichlet or \
                  contact boundary of the scene touches it, so its rigid motions are free (add a \
