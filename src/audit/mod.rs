@@ -349,7 +349,26 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     // one body (docs/design.md §4.2 "Bodies").
     let found = crate::bodies::find(&data.mesh);
     let (data, topo, body) = choose_body(data, topo, &scene, found)?;
-    let fields = problem::select_fields(&data, &scene)?;
+    let mut fields = problem::select_fields(&data, &scene)?;
+    // A P2 displacement written at the vertices only (zero mid-edge values) is audited as the
+    // P1 interpolant of its vertex values (docs/design.md §4.1).
+    let mid_edge = match fields.displacement.as_mut() {
+        Some(u) => problem::fields::mid_edge_values(&data.mesh, &topo, u),
+        None => problem::fields::MidEdge::Field,
+    };
+    match mid_edge {
+        problem::fields::MidEdge::VerticesOnly => fields.notes.push(
+            "warning: displacement given at the vertices only (every mid-edge value is zero): \
+             audited as P1 (mid-edge values interpolated linearly)"
+                .into(),
+        ),
+        problem::fields::MidEdge::LinearOnEdges => fields.notes.push(
+            "displacement linear along every edge (each mid-edge value is the mean of its \
+             ends): a P1 field in P2 form, evaluated as given"
+                .into(),
+        ),
+        problem::fields::MidEdge::Field => {}
+    }
     let boundaries = problem::classify(&data, &topo, &scene)?;
     crate::bodies::check_supported(&data, &body.list[body.audited], &scene, &boundaries)?;
     lap("scene and fields", &mut stages);
@@ -717,6 +736,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         marked,
         projection_distance: projection.as_ref().map(|p| p.distance),
         bodies: body,
+        vertices_only: mid_edge == problem::fields::MidEdge::VerticesOnly,
     };
 
     let nodal_stress = match (&fields.stress, &reconstruction) {
