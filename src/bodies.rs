@@ -152,7 +152,7 @@ pub struct Choice {
     pub list: Vec<Body>,
     /// The index of the audited body.
     pub audited: usize,
-    /// "only body", "[body] index", "[body] cell_data", "[body] where" or "boundary conditions".
+    /// `only body`, `[body] index`, `[body] cell_data`, `[body] where` or `boundary conditions`.
     pub selected_by: String,
 }
 
