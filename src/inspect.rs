@@ -73,6 +73,8 @@ pub struct Summary {
     pub point_arrays: Vec<ArraySummary>,
     pub cell_arrays: Vec<ArraySummary>,
     pub tag_arrays: Vec<TagArray>,
+    /// The connected components of the cells (docs/design.md §4.2 "Bodies").
+    pub bodies: Vec<crate::bodies::Body>,
 }
 
 fn summarize(a: &DataArray) -> ArraySummary {
@@ -172,6 +174,7 @@ pub fn summary(file: &VtuFile, data: &Dataset, topo: &Topology) -> Summary {
         point_arrays: file.point_data.iter().map(summarize).collect(),
         cell_arrays: file.cell_data.iter().map(summarize).collect(),
         tag_arrays,
+        bodies: crate::bodies::find(mesh).list,
     }
 }
 
@@ -232,6 +235,21 @@ pub fn render(s: &Summary) -> String {
         "  bounds      x in [{}, {}], y in [{}, {}]",
         b[0], b[2], b[1], b[3]
     );
+    if s.bodies.len() > 1 {
+        let _ = writeln!(
+            o,
+            "  bodies      {} (connected components of the cells; a scene picks one with [body])",
+            s.bodies.len()
+        );
+    }
+    for b in s.bodies.iter().filter(|_| s.bodies.len() > 1) {
+        let [x0, y0, x1, y1] = b.bounding_box;
+        let _ = writeln!(
+            o,
+            "  body {:<6} {} cells, {} points, x in [{x0}, {x1}], y in [{y0}, {y1}], first cell {}",
+            b.index, b.cells, b.points, b.first_cell
+        );
+    }
     match &s.exploded {
         Some(m) => {
             let _ = writeln!(

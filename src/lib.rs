@@ -5,6 +5,7 @@
 //! read (VTU, scene) → mesh and fields → topology → elements and quadrature → … → report.
 
 pub mod audit;
+pub mod bodies;
 pub mod element;
 pub mod error;
 pub mod estimate;

@@ -25,6 +25,22 @@ pub struct Scene {
     /// The `[[boundary]]` tables in file order. Unselected edges are traction-free.
     pub boundaries: Vec<Boundary>,
     pub estimate: Estimate,
+    /// `[body]`: which body (connected component of the cells) of a multi-body file to audit;
+    /// `None` = the only one, or the one the boundary conditions support (docs/design.md §4.2).
+    pub body: Option<BodySelector>,
+}
+
+/// `[body]`: one of three ways to name a body (docs/design.md §4.2, §7).
+#[derive(Clone, Debug, PartialEq)]
+pub enum BodySelector {
+    /// `index = N`: the body's index (bodies are numbered by their first cell in the file).
+    Index(usize),
+    /// `cell_data = { name, value }`: the body holding every cell whose value in the
+    /// one-component cell array `name` equals `value`.
+    CellData { name: String, value: f64 },
+    /// `where = "expr"`: the body holding every cell whose centroid (the mean of its
+    /// vertices) satisfies the expression (> 0).
+    Where(Expr),
 }
 
 /// `[material]`: linear isotropic elasticity.

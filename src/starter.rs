@@ -116,6 +116,39 @@ pub fn starter_scene(data: &Dataset, topo: &Topology, file_name: &str) -> Result
         "# Starter scene for {file_name}, written by `fosls scene` (docs/design.md §7).\n\
          # Check every line marked EDIT, then run `fosls estimate {file_name}`.\n"
     );
+    let bodies = crate::bodies::find(mesh).list;
+    if bodies.len() > 1 {
+        let _ = writeln!(
+            o,
+            "# This file holds {} bodies (connected components of the cells); one is audited \
+             (docs/design.md §4.2):",
+            bodies.len()
+        );
+        for b in &bodies {
+            let [x0, y0, x1, y1] = b.bounding_box;
+            let _ = writeln!(
+                o,
+                "#   body {}: {} cells, {} points, x in [{}, {}], y in [{}, {}]",
+                b.index,
+                b.cells,
+                b.points,
+                short(x0),
+                short(x1),
+                short(y0),
+                short(y1)
+            );
+        }
+        let _ = writeln!(
+            o,
+            "# EDIT: uncomment to choose the body (else the one the dirichlet and contact \
+             boundaries touch),\n\
+             # by index, by where = \"expression in x, y\" (true at the centroids of its cells) \
+             or by\n\
+             # cell_data = {{ name = \"array\", value = V }}.\n\
+             # [body]\n\
+             # index = 0\n"
+        );
+    }
     let _ = writeln!(
         o,
         "[material]\n\

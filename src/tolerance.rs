@@ -121,3 +121,14 @@ pub const INVERSE_MAP_STEP: f64 = 2e-15;
 
 /// Cap on the Newton steps of the inverse cell map.
 pub const INVERSE_MAP_ITERATIONS: usize = 30;
+
+/// Poisson ratios at or above this are "near the incompressible limit" for messages: λ/μ =
+/// 2ν/(1 − 2ν) ≥ 49, where the pressure mode of the reconstruction is nearly free and a failed
+/// factorisation may be caused by it (the message mentions ν = 0.5 only then).
+pub const NEAR_INCOMPRESSIBLE_NU: f64 = 0.49;
+
+/// A displacement on a quadratic mesh is "given at the vertices only" when every mid-edge value
+/// differs from the mean of its edge's end values by at most this times the field's largest
+/// magnitude (round-off of a writer that interpolates linearly; a genuine P2 field on a curved
+/// or loaded body misses the mean by the O(h²) curvature of the solution, far above 1e-10).
+pub const VERTEX_ONLY_RELATIVE: f64 = 1e-10;

@@ -46,7 +46,7 @@ def _toml_value(v):
 
 def scene_toml(scene, header):
     out = [f"# {line}" for line in header.splitlines()] + [""]
-    for sec in ("material", "fields", "loads", "boundaries"):
+    for sec in ("material", "fields", "body", "loads", "boundaries"):
         if sec in scene:
             out.append(f"[{sec}]")
             for k, v in scene[sec].items():

@@ -263,6 +263,51 @@ fn condition_warning(info: &crate::solve::SolveInfo, what: &str) -> Option<Strin
     })
 }
 
+/// The body to audit and the dataset and topology cut down to it (docs/design.md §4.2): a
+/// one-body file without `[body]` is returned as it is.
+fn choose_body(
+    data: mesh::Dataset,
+    topo: topology::Topology,
+    scene: &Scene,
+    found: crate::bodies::Bodies,
+) -> Result<(mesh::Dataset, topology::Topology, crate::bodies::Choice), Error> {
+    let full = if found.list.len() > 1 && scene.body.is_none() {
+        Some(problem::classify(&data, &topo, scene)?)
+    } else {
+        None
+    };
+    let (b, by) = crate::bodies::choose(&data, &found, scene, full.as_ref())?;
+    let choice = crate::bodies::Choice {
+        list: found.list.clone(),
+        audited: b,
+        selected_by: by.to_string(),
+    };
+    if found.list.len() == 1 {
+        return Ok((data, topo, choice));
+    }
+    let data = crate::bodies::restrict(&data, &found, b);
+    let topo = topology::build(&data)?;
+    Ok((data, topo, choice))
+}
+
+/// A solver failure with the hint that fits the material: a free constant pressure is named
+/// only near the incompressible limit (ν ≥ [`crate::tolerance::NEAR_INCOMPRESSIBLE_NU`]).
+fn with_hint(problem: String, scene: &Scene) -> String {
+    let nu = scene.material.poisson_ratio;
+    if !problem.contains("not positive definite") {
+        problem
+    } else if nu >= crate::tolerance::NEAR_INCOMPRESSIBLE_NU {
+        format!(
+            "{problem} (at ν = {nu}, near the incompressible limit 0.5, a constant pressure is \
+             free unless a traction boundary fixes it)"
+        )
+    } else {
+        format!(
+            "{problem} (ν = {nu}: check that the Dirichlet and contact boundaries hold the body)"
+        )
+    }
+}
+
 /// Runs the audit (steps 1–5 of the module doc).
 pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     opts.validate()?;
@@ -300,8 +345,32 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         }
         Some(n) => n,
     };
-    let fields = problem::select_fields(&data, &scene)?;
+    // Several bodies: choose one and cut the mesh down to it, so that every later stage sees
+    // one body (docs/design.md §4.2 "Bodies").
+    let found = crate::bodies::find(&data.mesh);
+    let (data, topo, body) = choose_body(data, topo, &scene, found)?;
+    let mut fields = problem::select_fields(&data, &scene)?;
+    // A P2 displacement written at the vertices only (zero mid-edge values) is audited as the
+    // P1 interpolant of its vertex values (docs/design.md §4.1).
+    let mid_edge = match fields.displacement.as_mut() {
+        Some(u) => problem::fields::mid_edge_values(&data.mesh, &topo, u),
+        None => problem::fields::MidEdge::Field,
+    };
+    match mid_edge {
+        problem::fields::MidEdge::VerticesOnly => fields.notes.push(
+            "warning: displacement given at the vertices only (every mid-edge value is zero): \
+             audited as P1 (mid-edge values interpolated linearly)"
+                .into(),
+        ),
+        problem::fields::MidEdge::LinearOnEdges => fields.notes.push(
+            "displacement linear along every edge (each mid-edge value is the mean of its \
+             ends): a P1 field in P2 form, evaluated as given"
+                .into(),
+        ),
+        problem::fields::MidEdge::Field => {}
+    }
     let boundaries = problem::classify(&data, &topo, &scene)?;
+    crate::bodies::check_supported(&data, &body.list[body.audited], &scene, &boundaries)?;
     lap("scene and fields", &mut stages);
 
     finite::check_inputs(&data, &fields, &scene, &boundaries.edges)?;
@@ -343,7 +412,11 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             progress.stage("reconstructing the displacement");
             let r = reconstruct::displacement::reconstruct(&ctx, StressField::Nodal(values))
                 .map_err(|problem| {
-                    Error::input(&opts.file, "displacement reconstruction", problem)
+                    Error::input(
+                        &opts.file,
+                        "displacement reconstruction",
+                        with_hint(problem, &scene),
+                    )
                 })?;
             progress.done();
             lap("reconstruct displacement", &mut stages);
@@ -354,8 +427,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let projection = match file_u {
         Some(fu) if rebuilt.is_none() && violations > 0 && opts.displacement == Source::Auto => {
             progress.stage("projecting the displacement onto K_u");
-            let p = reconstruct::projection::project(&ctx, fu)
-                .map_err(|problem| Error::input(&opts.file, "displacement projection", problem))?;
+            let p = reconstruct::projection::project(&ctx, fu).map_err(|problem| {
+                Error::input(
+                    &opts.file,
+                    "displacement projection",
+                    with_hint(problem, &scene),
+                )
+            })?;
             progress.done();
             lap("project displacement", &mut stages);
             Some(p)
@@ -425,8 +503,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         None => None,
         Some(_) => {
             progress.stage("reconstructing the stress");
-            let r = reconstruct::stress::reconstruct(&ctx, u, order)
-                .map_err(|problem| Error::input(&opts.file, "stress reconstruction", problem))?;
+            let r = reconstruct::stress::reconstruct(&ctx, u, order).map_err(|problem| {
+                Error::input(
+                    &opts.file,
+                    "stress reconstruction",
+                    with_hint(problem, &scene),
+                )
+            })?;
             progress.done();
             lap("reconstruct stress", &mut stages);
             Some(r)
@@ -509,6 +592,15 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         cells: report::mark::dorfler(&report::eta_squared(&est.cells), theta),
     });
     let mut notes = fields.notes.clone();
+    if body.list.len() > 1 {
+        notes.push(format!(
+            "the file holds {} bodies (connected components of the cells); audited {}, chosen \
+             by {}; the others are not part of the audit",
+            body.list.len(),
+            body.list[body.audited].describe(),
+            body.selected_by
+        ));
+    }
     notes.extend(boundaries.notes.iter().cloned());
     if let Some(m) = &data.report.merge {
         notes.push(format!(
@@ -643,6 +735,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             .collect(),
         marked,
         projection_distance: projection.as_ref().map(|p| p.distance),
+        bodies: body,
+        vertices_only: mid_edge == problem::fields::MidEdge::VerticesOnly,
     };
 
     let nodal_stress = match (&fields.stress, &reconstruction) {
@@ -695,6 +789,30 @@ pub fn output_files(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn incompressibility_hint_only_near_nu_one_half() {
+        let text = |nu: f64| {
+            format!(
+                "[material]\nyoungs_modulus = 1.0\npoisson_ratio = {nu}\n\
+                 [estimate]\nnorm = \"robust\"\n"
+            )
+        };
+        let scene = |nu: f64| scene::parse_scene(Path::new("s.toml"), &text(nu)).unwrap();
+        let failed = "the reconstruction matrix is not positive definite (x)".to_string();
+        assert_eq!(
+            with_hint(failed.clone(), &scene(0.28)),
+            "the reconstruction matrix is not positive definite (x) (ν = 0.28: check that the \
+             Dirichlet and contact boundaries hold the body)"
+        );
+        assert_eq!(
+            with_hint(failed, &scene(0.5)),
+            "the reconstruction matrix is not positive definite (x) (at ν = 0.5, near the \
+             incompressible limit 0.5, a constant pressure is free unless a traction boundary \
+             fixes it)"
+        );
+        assert_eq!(with_hint("other".into(), &scene(0.5)), "other");
+    }
 
     #[test]
     fn warning_only_above_the_threshold() {

@@ -592,3 +592,74 @@ pub(super) fn short(v: f64) -> String {
     let s = format!("{v}");
     if s.len() <= 10 { s } else { format!("{v:.5e}") }
 }
+
+/// What the mid-edge values of a displacement on a quadratic mesh say (docs/design.md §4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MidEdge {
+    /// A linear mesh, or mid-edge values that are a genuine part of the field.
+    Field,
+    /// Every mid-edge value is zero (to [`crate::tolerance::VERTEX_ONLY_RELATIVE`] of the
+    /// field's largest magnitude) while the vertices are not: the writer kept the vertex values
+    /// only (sfepy's default output of a P2 field). They are replaced by the mean of the edge's
+    /// end values, so the field is the P1 interpolant of the vertex values.
+    VerticesOnly,
+    /// Every mid-edge value is the mean of its ends (to the same tolerance): the field is linear
+    /// along every edge, i.e. P1 in P2 form. It is evaluated as given (it *is* that field); a
+    /// note says so, since a writer that interpolated linearly cannot be told from a linear
+    /// solution.
+    LinearOnEdges,
+}
+
+/// Classifies (and for [`MidEdge::VerticesOnly`] repairs) the mid-edge values of `u`: the mid
+/// node m of edge [a, b] is "zero" when |u_m| ≤ τ s and "the mean" when
+/// |u_m − (u_a + u_b)/2| ≤ τ s, s = max |u| over the vertices, τ = VERTEX_ONLY_RELATIVE.
+pub fn mid_edge_values(
+    mesh: &crate::mesh::Mesh,
+    topo: &crate::topology::Topology,
+    u: &mut [[f64; 2]],
+) -> MidEdge {
+    use crate::mesh::NONE;
+    if mesh.degree != 2 {
+        return MidEdge::Field;
+    }
+    let edges: Vec<(usize, usize, usize)> = topo
+        .edges
+        .iter()
+        .zip(&topo.edge_mid)
+        .filter(|(_, m)| **m != NONE)
+        .map(|(e, &m)| (e[0] as usize, e[1] as usize, m as usize))
+        .collect();
+    if edges.is_empty() {
+        return MidEdge::Field;
+    }
+    let scale = edges.iter().fold(0.0f64, |s, &(a, b, _)| {
+        s.max(u[a][0].abs())
+            .max(u[a][1].abs())
+            .max(u[b][0].abs())
+            .max(u[b][1].abs())
+    });
+    if scale == 0.0 || !scale.is_finite() {
+        return MidEdge::Field;
+    }
+    let tol = crate::tolerance::VERTEX_ONLY_RELATIVE * scale;
+    let mean =
+        |u: &[[f64; 2]], a: usize, b: usize| [(u[a][0] + u[b][0]) / 2.0, (u[a][1] + u[b][1]) / 2.0];
+    let zero = edges
+        .iter()
+        .all(|&(_, _, m)| u[m][0].abs() <= tol && u[m][1].abs() <= tol);
+    if zero {
+        for &(a, b, m) in &edges {
+            u[m] = mean(u, a, b);
+        }
+        return MidEdge::VerticesOnly;
+    }
+    let linear = edges.iter().all(|&(a, b, m)| {
+        let c = mean(u, a, b);
+        (u[m][0] - c[0]).abs() <= tol && (u[m][1] - c[1]).abs() <= tol
+    });
+    if linear {
+        MidEdge::LinearOnEdges
+    } else {
+        MidEdge::Field
+    }
+}

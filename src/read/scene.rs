@@ -88,6 +88,7 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<Scene> {
             "boundaries",
             "boundary",
             "estimate",
+            "body",
         ],
     )?;
 
@@ -127,6 +128,10 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<Scene> {
         Some(t) => r.estimate(t, &material)?,
         None => Estimate::default(),
     };
+    let body = match r.table(&top, "", "body")? {
+        Some(t) => Some(r.body(t)?),
+        None => None,
+    };
     Ok(Scene {
         file: path.to_path_buf(),
         material,
@@ -135,6 +140,7 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<Scene> {
         tag_array,
         boundaries,
         estimate,
+        body,
     })
 }
 
@@ -372,6 +378,58 @@ impl Reader<'_> {
             poisson_ratio,
             model,
         })
+    }
+
+    /// `[body]`: exactly one of `index`, `cell_data = { name, value }`, `where`.
+    fn body(&self, t: &Table) -> Result<BodySelector> {
+        let path = "body";
+        self.check_keys(t, path, "in [body]", &["index", "cell_data", "where"])?;
+        let given: Vec<&str> = ["index", "cell_data", "where"]
+            .into_iter()
+            .filter(|k| t.contains_key(*k))
+            .collect();
+        match given.as_slice() {
+            [] => Err(self.err(
+                path,
+                "empty table: give one of index = N, cell_data = { name, value }, where = \"…\"",
+            )),
+            [_] => Ok(()),
+            [a, b, ..] => Err(self.err(
+                path,
+                format!("{a} and {b} are both given; give one body selector"),
+            )),
+        }?;
+        if let Some(v) = t.get("index") {
+            let place = join(path, "index");
+            return match v {
+                Value::Integer(i) if *i >= 0 => Ok(BodySelector::Index(*i as usize)),
+                Value::Integer(i) => Err(self.err(place, format!("must be ≥ 0, got {i}"))),
+                _ => Err(self.wrong_type(&place, "an integer", v)),
+            };
+        }
+        if let Some(v) = t.get("cell_data") {
+            let place = join(path, "cell_data");
+            let Value::Table(c) = v else {
+                return Err(self.wrong_type(&place, "a table { name, value }", v));
+            };
+            self.check_keys(c, &place, "in [body] cell_data", &["name", "value"])?;
+            let name = self
+                .name(c, &place, "name")?
+                .ok_or_else(|| self.missing(&join(&place, "name")))?;
+            let value = match c.get("value") {
+                Some(v) => self.finite_value(&join(&place, "value"), v)?,
+                None => return Err(self.missing(&join(&place, "value"))),
+            };
+            return Ok(BodySelector::CellData { name, value });
+        }
+        let place = join(path, "where");
+        match t.get("where") {
+            Some(Value::String(s)) => Expr::parse(s)
+                .map(BodySelector::Where)
+                .map_err(|e| self.err(place, e)),
+            Some(v) => Err(self.wrong_type(&place, "a string with an expression in x, y", v)),
+            None => unreachable!("one selector is given"),
+        }
     }
 
     fn fields(&self, t: &Table) -> Result<FieldNames> {
@@ -818,6 +876,7 @@ poisson_ratio = 0.3
                 norm: Some(Norm::Energy),
                 length_scale: Some(0.318),
             },
+            body: None,
         };
         assert_eq!(scene, expected);
         assert_eq!(scene.effective_norm(), Norm::Energy);
@@ -1041,12 +1100,12 @@ gap = "x^2/2"
         assert_eq!(
             error(&format!("colour = 1\n{MINIMAL}")),
             "scene.toml: colour: unknown key (accepted at the top level: \
-             material, fields, loads, boundaries, boundary, estimate)"
+             material, fields, loads, boundaries, boundary, estimate, body)"
         );
         assert_eq!(
             error_with("[materials]\n"),
             "scene.toml: materials: unknown key (accepted at the top level: \
-             material, fields, loads, boundaries, boundary, estimate)"
+             material, fields, loads, boundaries, boundary, estimate, body)"
         );
         assert_eq!(
             error(&format!("{MINIMAL}density = 7.8\n")),
@@ -1095,7 +1154,56 @@ gap = "x^2/2"
         assert_eq!(
             error(&format!("\"a\\nb\" = 1\n{MINIMAL}")),
             "scene.toml: \"a\\nb\": unknown key (accepted at the top level: \
-             material, fields, loads, boundaries, boundary, estimate)"
+             material, fields, loads, boundaries, boundary, estimate, body)"
+        );
+    }
+
+    #[test]
+    fn body_selectors_and_their_errors() {
+        assert_eq!(
+            scene_with("[body]\nindex = 1\n").body,
+            Some(BodySelector::Index(1))
+        );
+        assert_eq!(
+            scene_with("[body]\ncell_data = { name = \"mat\", value = 2 }\n").body,
+            Some(BodySelector::CellData {
+                name: "mat".into(),
+                value: 2.0
+            })
+        );
+        let Some(BodySelector::Where(e)) = scene_with("[body]\nwhere = \"y > 0\"\n").body else {
+            panic!("a where selector")
+        };
+        assert!(e.holds(0.0, 1.0, 0.0) && !e.holds(0.0, -1.0, 0.0));
+        assert_eq!(scene_with("").body, None);
+        assert_eq!(
+            error_with("[body]\nindex = 0\nwhere = \"y > 0\"\n"),
+            "scene.toml: body: index and where are both given; give one body selector"
+        );
+        assert_eq!(
+            error_with("[body]\n"),
+            "scene.toml: body: empty table: give one of index = N, cell_data = { name, value }, \
+             where = \"…\""
+        );
+        assert_eq!(
+            error_with("[body]\nnumber = 0\n"),
+            "scene.toml: body.number: unknown key (accepted in [body]: index, cell_data, where)"
+        );
+        assert_eq!(
+            error_with("[body]\nindex = -1\n"),
+            "scene.toml: body.index: must be ≥ 0, got -1"
+        );
+        assert_eq!(
+            error_with("[body]\nindex = 1.5\n"),
+            "scene.toml: body.index: expected an integer, found a float (1.5)"
+        );
+        assert_eq!(
+            error_with("[body]\ncell_data = { name = \"mat\" }\n"),
+            "scene.toml: body.cell_data.value: missing required key"
+        );
+        assert_eq!(
+            error_with("[body]\nwhere = \"q > 0\"\n"),
+            "scene.toml: body.where: unknown variable 'q'"
         );
     }
 

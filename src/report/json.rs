@@ -53,6 +53,9 @@ pub struct Report {
     pub marked: Option<Marked>,
     pub stages: Vec<Stage>,
     pub notes: Vec<String>,
+    /// The bodies (connected components of the cells) of the file and the audited one.
+    #[serde(default)]
+    pub bodies: Option<crate::bodies::Choice>,
 }
 
 /// F and its terms.
@@ -88,6 +91,10 @@ pub struct Displacement {
     /// caused by the inadmissibility, added to the bound (triangle inequality).
     #[serde(default)]
     pub projection_distance: Option<f64>,
+    /// The file's P2 displacement was given at the vertices only (zero mid-edge values) and
+    /// audited as P1 (docs/design.md §4.1).
+    #[serde(default)]
+    pub vertices_only: bool,
 }
 
 /// Admissibility findings: for each kind the largest pointwise value (`_max`, the contract),
@@ -256,6 +263,7 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
             space: run.displacement.space.clone(),
             reason: run.displacement.reason.clone(),
             projection_distance: run.projection_distance,
+            vertices_only: run.vertices_only,
         },
         admissibility: admissibility(a, mesh),
         admissibility_file: run
@@ -312,6 +320,7 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
         }),
         stages: run.stages.clone(),
         notes: run.notes.clone(),
+        bodies: Some(run.bodies.clone()),
     }
 }
 

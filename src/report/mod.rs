@@ -96,6 +96,10 @@ pub struct Run {
     pub marked: Option<Marking>,
     /// ‖ũ_h − u_h‖_E when the file's displacement was projected onto K_u (docs/design.md §5).
     pub projection_distance: Option<f64>,
+    /// The bodies of the file and the one audited (docs/design.md §4.2).
+    pub bodies: crate::bodies::Choice,
+    /// The file's P2 displacement had zero mid-edge values: audited as P1 (docs/design.md §4.1).
+    pub vertices_only: bool,
 }
 
 /// The admissibility of the file's fields (docs/design.md §8.1: the "file" column).
@@ -365,6 +369,8 @@ pub(crate) mod fixture {
             ],
             marked: None,
             projection_distance: None,
+            bodies: crate::bodies::Choice::default(),
+            vertices_only: false,
         }
     }
 }

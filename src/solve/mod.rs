@@ -139,9 +139,8 @@ impl Factor {
         let llt = Llt::try_new_with_symbolic(self.llt.clone(), mat.as_ref(), Side::Lower).map_err(
             |e| {
                 format!(
-                    "the reconstruction matrix is not positive definite ({e:?}): the stress is \
-                     not determined by the functional (at ν = 0.5 a constant pressure is free \
-                     unless a traction boundary fixes it; a displacement needs Dirichlet data)"
+                    "the reconstruction matrix is not positive definite ({e:?}): the field is \
+                     not determined by the functional"
                 )
             },
         )?;
