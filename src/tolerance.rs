@@ -132,3 +132,10 @@ pub const NEAR_INCOMPRESSIBLE_NU: f64 = 0.49;
 /// magnitude (round-off of a writer that interpolates linearly; a genuine P2 field on a curved
 /// or loaded body misses the mean by the O(h²) curvature of the solution, far above 1e-10).
 pub const VERTEX_ONLY_RELATIVE: f64 = 1e-10;
+
+/// A cell stress and a displacement "do not belong together" when the cell stress differs
+/// from the cell means of Cε(u_h) by more than this, relative in the area-weighted RMS
+/// (docs/design.md §4.1). A solver's own pair agrees to its output precision (6 significant
+/// digits in ASCII: 1e-6); 2 % is far above that and far below the 12 % of a P2 solution
+/// written at its vertices only (sfepy's default output) or of a wrong material.
+pub const CELL_STRESS_MISMATCH: f64 = 0.02;

@@ -117,9 +117,29 @@ fn zero_mid_edge_values_are_audited_as_p1_and_the_exact_solution_stays_exact() {
 #[test]
 fn sfepy_vertex_field_on_linear_cells_is_plain_p1() {
     // sfepy's file keeps the 445 vertices of its P2 field on 3-node triangles: a P1 file, so
-    // nothing to detect; the flag stays false and the degree is 1.
+    // no zero mid-edge values to detect; the flag stays false and the degree is 1. Its cell
+    // stress is the cell mean of Cε of the P2 solution (the fixture's README: ev_cauchy_stress
+    // el_avg), which the vertex field does not reproduce: the report says so, and that the
+    // field is audited as P1.
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/sfepy_hertz_p2_vtk");
     let r = estimate(&dir.join("hertz.vtk"), &dir.join("scene.toml"));
     assert_eq!(r.displacement.degree, 1);
     assert!(!r.displacement.vertices_only);
+    let w: Vec<&String> = r
+        .notes
+        .iter()
+        .filter(|n| n.contains("cell stress \"cauchy_stress\" differs"))
+        .collect();
+    assert_eq!(w.len(), 1, "{:?}", r.notes);
+    assert!(w[0].contains("audited as P1"), "{}", w[0]);
+    let pct: f64 = w[0]
+        .split(" by ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(pct > 2.0, "{pct}");
 }

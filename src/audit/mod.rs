@@ -369,6 +369,31 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         ),
         problem::fields::MidEdge::Field => {}
     }
+    // A cell stress that is not the cell mean of Cε(u_h): the two fields do not belong
+    // together. On a P1 mesh the likely cause is a higher-order solution written at its
+    // vertices only (docs/design.md §4.1).
+    if let (problem::Stress::Cell { values, name, .. }, Some(u)) =
+        (&fields.stress, fields.displacement.as_deref())
+    {
+        let elastic = crate::material::Elastic::new(&scene.material);
+        if let Some(r) = problem::fields::cell_stress_mismatch(&data.mesh, u, values, &elastic)
+            && r > crate::tolerance::CELL_STRESS_MISMATCH
+        {
+            let why = if data.mesh.degree == 1 {
+                "the displacement is not the field the stress came from; a higher-order \
+                 solution written at its vertices only (as sfepy's default output does) is \
+                 audited as P1"
+            } else {
+                "the stress and the displacement do not belong together (or the scene's \
+                 material is not the solver's)"
+            };
+            fields.notes.push(format!(
+                "warning: cell stress \"{name}\" differs from the cell means of Cε(u_h) by \
+                 {:.1} % (area-weighted RMS): {why}",
+                100.0 * r
+            ));
+        }
+    }
     let boundaries = problem::classify(&data, &topo, &scene)?;
     crate::bodies::check_supported(&data, &body.list[body.audited], &scene, &boundaries)?;
     lap("scene and fields", &mut stages);

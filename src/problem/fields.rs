@@ -663,3 +663,119 @@ pub fn mid_edge_values(
         MidEdge::Field
     }
 }
+
+/// How far a piecewise-constant cell stress σ_T is from the displacement's own stress, in the
+/// area-weighted RMS (docs/design.md §4.1 "Cell stress and displacement"):
+///
+/// ```text
+/// r = ( Σ_T ∫_T |σ_T − m_T|² ) ^½ / ( Σ_T ∫_T |σ_T|² ) ^½,   m_T = (1/|T|) ∫_T Cε(u_h) dx,
+/// ```
+///
+/// with |·| the Frobenius norm and the integrals by the cells' quadrature. `None` where it is
+/// not defined: λ = ∞ (Cε(u_h) has no meaning) or a zero stress.
+pub fn cell_stress_mismatch(
+    mesh: &crate::mesh::Mesh,
+    u: &[[f64; 2]],
+    cells: &[[f64; 4]],
+    elastic: &crate::material::Elastic,
+) -> Option<f64> {
+    use crate::geometry::MAX_NODES;
+    use crate::geometry::values::{CellValues, interior_table};
+    use rayon::prelude::*;
+    if !elastic.lambda.is_finite() || cells.len() != mesh.len() {
+        return None;
+    }
+    let (num, den) = (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(1024)
+        .map_init(
+            Vec::<(crate::geometry::Family, crate::geometry::Shape, CellValues)>::new,
+            |cache, t| {
+                let (f, sh) = (mesh.family[t], mesh.shape[t]);
+                let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
+                    Some(i) => i,
+                    None => {
+                        cache.push((f, sh, CellValues::new(interior_table(f, sh, None, true))));
+                        cache.len() - 1
+                    }
+                };
+                let cv = &mut cache[i].2;
+                let nodes = mesh.nodes(t);
+                let x = mesh.coords(t);
+                cv.reinit(&x[..nodes.len()], sh);
+                let mut ue = [[0.0; 2]; MAX_NODES];
+                for (k, &p) in nodes.iter().enumerate() {
+                    ue[k] = u[p as usize];
+                }
+                let (mut area, mut m) = (0.0, [0.0; 4]);
+                for q in 0..cv.len() {
+                    let g = cv.gradient2(q, &ue);
+                    let sym = 0.5 * (g[0][1] + g[1][0]);
+                    let s = elastic.stress([g[0][0], sym, sym, g[1][1]]);
+                    area += cv.jxw[q];
+                    for k in 0..4 {
+                        m[k] += cv.jxw[q] * s[k];
+                    }
+                }
+                let s = cells[t];
+                let (mut d2, mut s2) = (0.0, 0.0);
+                for k in 0..4 {
+                    let d = s[k] - m[k] / area;
+                    d2 += d * d;
+                    s2 += s[k] * s[k];
+                }
+                (area * d2, area * s2)
+            },
+        )
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    (den > 0.0 && num.is_finite()).then(|| (num / den).sqrt())
+}
+
+#[cfg(test)]
+mod cell_stress_tests {
+    use super::cell_stress_mismatch;
+    use crate::material::Elastic;
+    use crate::read::vtu::VtuFile;
+
+    /// u = (a x + b y, c x + d y) on two triangles of the unit square: Cε(u) is one constant
+    /// tensor S. A cell stress equal to S gives r = 0; S on one triangle and S + D on the
+    /// other (equal areas) give r = |D| / (|S|² + |S + D|²)^½ · 1 by hand.
+    #[test]
+    fn mismatch_is_zero_for_the_own_stress_and_the_hand_value_otherwise() {
+        let p = |x: f64, y: f64| [x, y, 0.0];
+        let points = vec![p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)];
+        let cells = vec![(5u8, vec![0, 1, 2]), (5, vec![0, 2, 3])];
+        let data = crate::mesh::build(VtuFile::from_cells(
+            std::path::Path::new("s.vtu"),
+            points,
+            &cells,
+        ))
+        .unwrap();
+        let (a, b, c, d) = (1e-3, 2e-3, -5e-4, -3e-3);
+        let u: Vec<[f64; 2]> = data
+            .mesh
+            .points
+            .iter()
+            .map(|x| [a * x[0] + b * x[1], c * x[0] + d * x[1]])
+            .collect();
+        let el = Elastic {
+            mu: 8000.0,
+            lambda: 12000.0,
+        };
+        let e = 0.5 * (b + c);
+        let s = el.stress([a, e, e, d]);
+        let r = cell_stress_mismatch(&data.mesh, &u, &[s, s], &el).unwrap();
+        assert!(r < 1e-15, "{r}");
+        let dd = [3.0, -1.0, -1.0, 2.0];
+        let s2 = [s[0] + dd[0], s[1] + dd[1], s[2] + dd[2], s[3] + dd[3]];
+        let n2 = |t: [f64; 4]| t.iter().map(|v| v * v).sum::<f64>();
+        let want = (n2(dd) / (n2(s) + n2(s2))).sqrt();
+        let r = cell_stress_mismatch(&data.mesh, &u, &[s, s2], &el).unwrap();
+        assert!((r - want).abs() <= 1e-14 * want, "{r} vs {want}");
+        let inc = Elastic {
+            mu: 8000.0,
+            lambda: f64::INFINITY,
+        };
+        assert_eq!(cell_stress_mismatch(&data.mesh, &u, &[s, s], &inc), None);
+    }
+}
