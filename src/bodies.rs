@@ -135,14 +135,32 @@ impl Bodies {
         b
     }
 
-    /// The bodies, one line each, for messages: `body 0 (…); body 1 (…)`.
+    /// The bodies for messages: `body 0 (…); body 1 (…)`, at most [`LISTED`] of them.
     pub fn describe(&self) -> String {
-        self.list
-            .iter()
-            .map(Body::describe)
-            .collect::<Vec<_>>()
-            .join("; ")
+        bounded_list(self.list.iter().map(Body::describe), "; ")
     }
+}
+
+/// How many items a message lists before "… and N more": an error stays one short line
+/// whatever the file holds (a mutated exploded mesh can have hundreds of bodies).
+pub const LISTED: usize = 4;
+
+/// The first [`LISTED`] items joined by `sep`, then "… and N more" for the rest.
+fn bounded_list(items: impl Iterator<Item = String>, sep: &str) -> String {
+    let mut shown = Vec::new();
+    let mut rest = 0usize;
+    for item in items {
+        if shown.len() < LISTED {
+            shown.push(item);
+        } else {
+            rest += 1;
+        }
+    }
+    let mut out = shown.join(sep);
+    if rest > 0 {
+        out.push_str(&format!("{sep}… and {rest} more"));
+    }
+    out
 }
 
 /// How the audited body was chosen, for the report.
@@ -191,10 +209,7 @@ pub fn choose(
                 format!(
                     "{what} at cells of {} bodies ({}); a body selector must pick one body",
                     many.len(),
-                    many.iter()
-                        .map(|&b| bodies.list[b].describe())
-                        .collect::<Vec<_>>()
-                        .join("; ")
+                    bounded_list(many.iter().map(|&b| bodies.list[b].describe()), "; ")
                 ),
             )),
         }
@@ -293,11 +308,10 @@ pub fn choose(
                         } else {
                             format!(
                                 "touch {}",
-                                supported
-                                    .iter()
-                                    .map(|b| format!("body {b}"))
-                                    .collect::<Vec<_>>()
-                                    .join(" and ")
+                                bounded_list(
+                                    supported.iter().map(|b| format!("body {b}")),
+                                    " and "
+                                )
                             )
                         }
                     ),
