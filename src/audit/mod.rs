@@ -296,10 +296,14 @@ fn with_hint(problem: String, scene: &Scene) -> String {
     let nu = scene.material.poisson_ratio;
     if !problem.contains("not positive definite") {
         problem
+    } else if nu >= 0.5 {
+        format!(
+            "{problem} (at ν = 0.5 a constant pressure is free unless a traction boundary fixes it)"
+        )
     } else if nu >= crate::tolerance::NEAR_INCOMPRESSIBLE_NU {
         format!(
-            "{problem} (at ν = {nu}, near the incompressible limit 0.5, a constant pressure is \
-             free unless a traction boundary fixes it)"
+            "{problem} (at ν = {nu}, near the incompressible limit, a constant pressure is \
+             nearly free unless a traction boundary fixes it)"
         )
     } else {
         format!(
