@@ -239,7 +239,6 @@ fn case(spec: &str) {
                     &ctx,
                     fields.displacement.as_deref().expect("a displacement"),
                     estimate::StressField::Nodal(values),
-                    true,
                 );
                 let t4 = Instant::now();
                 let c4 = cpu();

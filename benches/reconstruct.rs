@@ -295,7 +295,6 @@ fn child(spec: &str) {
         &ctx,
         fields.displacement.as_deref().expect("a displacement"),
         StressField::Rt(&r.stress),
-        false,
     );
     let estimate_time = t_est.elapsed().as_secs_f64();
     let peak = status_mib("VmHWM:");

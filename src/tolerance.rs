@@ -139,3 +139,22 @@ pub const VERTEX_ONLY_RELATIVE: f64 = 1e-10;
 /// digits in ASCII: 1e-6); 2 % is far above that and far below the 12 % of a P2 solution
 /// written at its vertices only (sfepy's default output) or of a wrong material.
 pub const CELL_STRESS_MISMATCH: f64 = 0.02;
+
+/// Cap on active-set changes of one patch QP (`reconstruct::patch`): a patch has at most a few
+/// dozen sign-constrained contact variables, and the primal–dual active set settles in a few
+/// steps; more means cycling.
+pub const PATCH_ACTIVE_SET_ITERATIONS: usize = 50;
+
+/// A patch's equality constraints count as met when every row's residual is below this
+/// fraction of the row's scale Σ|B_kj x_j| + |d_k|: round-off of the dense solve is ~1e-13,
+/// while a displacement that is not a Galerkin solution leaves defects of its solver tolerance.
+pub const PATCH_DEFECT_RELATIVE: f64 = 1e-8;
+
+/// A constraint row whose component orthogonal to the previous rows is below this fraction of
+/// its norm is dependent (dropped; its consistency shows in the defect).
+pub const PATCH_DEPENDENT_ROW: f64 = 1e-10;
+
+/// A cell's rigid-motion moments of div τ + f, or the mean of as τ, count as zero below this
+/// fraction of their scale (∫ h|div τ| + h|f|, ∫|τ_xy| + |τ_yx|): the patch reconstruction
+/// meets them to ~1e-13, a non-equilibrated stress misses them by O(1).
+pub const BOUND_MOMENT_RELATIVE: f64 = 1e-8;

@@ -247,8 +247,17 @@ pub fn check_estimate(file: &std::path::Path, est: &Estimate) -> Result<(), Erro
             bad(&format!("{what} of cell {t}"), v)?;
         }
     }
-    if let Some(v) = est.bound.value {
-        bad("bound.value", v)?;
+    if let Some(v) = est.bound.energy_error {
+        bad("bound.energy_error", v)?;
+    }
+    if let Some((t, &v)) = est
+        .bound
+        .cells
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !v.is_finite())
+    {
+        bad(&format!("bound.cells of cell {t}"), v)?;
     }
     Ok(())
 }

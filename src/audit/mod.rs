@@ -28,8 +28,19 @@ pub enum Source {
     Auto,
     /// The file's field as it is.
     File,
-    /// Rebuild the field from the other one.
+    /// Rebuild the field from the other one (the stress: the global minimiser).
     Reconstruct,
+    /// The stress rebuilt by patch equilibration (docs/design.md §5.10).
+    Patch,
+    /// The stress rebuilt as the global minimiser of F (docs/design.md §5.3).
+    Global,
+}
+
+impl Source {
+    /// Whether this asks for a stress reconstruction.
+    fn rebuilds(self) -> bool {
+        matches!(self, Source::Reconstruct | Source::Patch | Source::Global)
+    }
 }
 
 /// Why the displacement was rebuilt from the stress.
@@ -110,7 +121,14 @@ impl Options {
         if let Some(theta) = self.mark {
             report::mark::check_theta(theta)?;
         }
-        if self.displacement == Source::Reconstruct && self.stress == Source::Reconstruct {
+        if matches!(self.displacement, Source::Patch | Source::Global) {
+            return Err(Error::Usage(
+                "--displacement patch|global: these name stress reconstructions; use \
+                 --displacement auto|file|reconstruct"
+                    .into(),
+            ));
+        }
+        if self.displacement == Source::Reconstruct && self.stress.rebuilds() {
             return Err(Error::Usage(
                 "--stress reconstruct: the displacement is reconstructed from the file's \
                  stress, so the stress cannot be reconstructed too"
@@ -190,18 +208,6 @@ pub fn find_scene(file: &Path, given: Option<&Path>) -> Result<PathBuf, Error> {
     ))
 }
 
-/// Whether a stress is symmetric to round-off: max |σxy − σyx| ≤ 1e-12 max |σ|.
-fn symmetric(sigma: &[[f64; 4]]) -> bool {
-    let (mut asym, mut max) = (0.0f64, 0.0f64);
-    for s in sigma {
-        asym = asym.max((s[1] - s[2]).abs());
-        max = s.iter().fold(max, |m, v| m.max(v.abs()));
-    }
-    asym <= 1e-12 * max
-}
-
-/// Adds the rebuilt fields to the output file: the reconstructed stress as cell averages
-/// (9 components, row-major, σ_zz = 0 as stored; one tuple per cell, zeros on lines) and the
 /// projected displacement as point data.
 fn add_reconstructed(
     file: &mut crate::read::vtu::VtuFile,
@@ -423,7 +429,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let rebuilt = match &rebuild_reason {
         None => None,
         Some(_) => {
-            if opts.stress == Source::Reconstruct {
+            if opts.stress.rebuilds() {
                 return Err(Error::Usage(
                     "--stress reconstruct: the displacement is reconstructed from the file's \
                      stress, so the stress cannot be reconstructed too"
@@ -487,7 +493,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         .iter()
         .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
     let reconstruct_reason = match (&fields.stress, opts.stress) {
-        (_, Source::Reconstruct) => Some(StressReason::Asked),
+        (_, Source::Reconstruct | Source::Patch | Source::Global) => Some(StressReason::Asked),
         // A conforming but inadmissible stress (tension, traction outside the cone, wrong
         // traction data) is rebuilt in K_σ under `auto` (docs/design.md §5).
         (Stress::Nodal { values, name, .. }, Source::Auto) => {
@@ -528,8 +534,34 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         }
         (Stress::Absent, Source::Auto) => Some(StressReason::Absent),
     };
+    // Patch equilibration (triangles, λ < ∞, k ≥ 1) when asked for: the stress the bound
+    // needs; the global minimiser otherwise.
+    let use_patch = match opts.stress {
+        Source::Patch => true,
+        // `auto` keeps the global minimiser for now (issue 13: switching the default is
+        // pending the patch path's checks on every fixture family).
+        Source::Auto => false,
+        _ => false,
+    };
+    let patch_order = match opts.degree.unwrap_or(data.mesh.degree) {
+        0 | 1 => RtOrder::Rt1,
+        _ => reconstruct::patch::order_for_degree(2),
+    };
+    let mut patch_info = None;
     let reconstruction = match &reconstruct_reason {
         None => None,
+        Some(_) if use_patch => {
+            progress.stage("reconstructing the stress on vertex patches");
+            let r = reconstruct::patch::reconstruct(&ctx, u, patch_order)
+                .map_err(|problem| Error::input(&opts.file, "patch reconstruction", problem))?;
+            progress.done();
+            lap("reconstruct stress (patches)", &mut stages);
+            patch_info = Some(r.info);
+            Some(reconstruct::stress::Reconstruction {
+                stress: r.stress,
+                info: crate::solve::SolveInfo::default(),
+            })
+        }
         Some(_) => {
             progress.stage("reconstructing the stress");
             let r = reconstruct::stress::reconstruct(&ctx, u, order).map_err(|problem| {
@@ -544,19 +576,29 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             Some(r)
         }
     };
-    let (sigma, stress_info, symmetric) = match (&fields.stress, &reconstruction) {
+    let (sigma, stress_info) = match (&fields.stress, &reconstruction) {
         (_, Some(r)) => (
             StressField::Rt(&r.stress),
             report::FieldInfo {
                 source: "reconstructed".into(),
                 name: String::new(),
-                space: format!("RT_{degree} row-wise (global minimiser of F)"),
+                space: match &patch_info {
+                    Some(p) => format!(
+                        "RT_{} row-wise, equilibrated on vertex patches{}",
+                        r.stress.order.k(),
+                        if p.weak_symmetry {
+                            ", weakly symmetric per cell"
+                        } else {
+                            ""
+                        }
+                    ),
+                    None => format!("RT_{degree} row-wise (global minimiser of F)"),
+                },
                 reason: reconstruct_reason
                     .as_ref()
                     .map(|r| r.to_string())
                     .unwrap_or_default(),
             },
-            false,
         ),
         (
             Stress::Nodal {
@@ -576,13 +618,22 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                 ),
                 reason: "conforming nodal stress, used as is".into(),
             },
-            symmetric(values),
         ),
         _ => unreachable!("a stress that is not nodal is reconstructed"),
     };
 
     progress.stage("evaluating the functional");
-    let mut est: Estimate = estimate::run(&ctx, u, sigma, symmetric);
+    let mut est: Estimate = estimate::run(&ctx, u, sigma);
+    if let Some(p) = &projection {
+        est.bound = estimate::bound::bound(
+            &ctx,
+            u,
+            sigma,
+            &est.functional,
+            &est.admissibility,
+            Some(p.distance),
+        );
+    }
     // The contact zone is the file's displacement's (the projection lifts the zone by up to
     // ~1e-5 and would reopen it, issue 12; the traction is the stress used's).
     if let (Some(_), Some(fu)) = (&projection, file_u) {
@@ -689,7 +740,34 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         ));
         notes.extend(condition_warning(&r.info, "displacement reconstruction"));
     }
-    if let Some(r) = &reconstruction {
+    if let Some(p) = &patch_info {
+        notes.push(format!(
+            "patch reconstruction: {} vertex patches (up to {} unknowns), {} active contact \
+             constraints{}{}",
+            p.patches,
+            p.max_unknowns,
+            p.active,
+            if p.unsettled > 0 {
+                format!(", {} patches whose active set did NOT settle", p.unsettled)
+            } else {
+                String::new()
+            },
+            if p.incompatible > 0 {
+                format!(
+                    "; WARNING: on {} patches the displacement does not satisfy the discrete \
+                     equations (largest relative defect {:.1e}): σ_h is not exactly \
+                     equilibrated there",
+                    p.incompatible, p.max_defect
+                )
+            } else {
+                format!(
+                    ", equilibrated (largest relative defect {:.1e})",
+                    p.max_defect
+                )
+            }
+        ));
+    }
+    if let (Some(r), None) = (&reconstruction, &patch_info) {
         notes.push(format!(
             "stress reconstruction: {} unknowns, {} nonzeros, {} active-set iterations{}, {} \
              active contact constraints, KKT residual {:.2e}",

@@ -42,6 +42,8 @@ fn source(s: Source) -> audit::Source {
         Source::Auto => audit::Source::Auto,
         Source::File => audit::Source::File,
         Source::Reconstruct => audit::Source::Reconstruct,
+        Source::Patch => audit::Source::Patch,
+        Source::Global => audit::Source::Global,
     }
 }
 

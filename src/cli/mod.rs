@@ -80,8 +80,12 @@ pub enum Source {
     Auto,
     /// Use the file's field as it is.
     File,
-    /// Rebuild the field from the other one.
+    /// Rebuild the field from the other one (the stress: as `global`).
     Reconstruct,
+    /// Stress only: the equilibrated reconstruction on vertex patches (the bound's stress).
+    Patch,
+    /// Stress only: the global FOSLS minimiser (the sharpest F, not a bound).
+    Global,
 }
 
 /// Norm preset (overrides the scene's `[estimate] norm`).

@@ -6,6 +6,7 @@ use std::path::Path;
 use super::*;
 use crate::mesh;
 use crate::problem::Condition;
+use crate::read::scene::Scene;
 use crate::read::scene::parse_scene;
 use crate::read::vtu::VtuFile;
 use crate::topology;
@@ -189,7 +190,7 @@ fn exact(nu: f64, norm: Norm, perturb: impl Fn([f64; 2]) -> [f64; 4]) -> (Estima
     let sc = scene(nu, norm.as_str(), f);
     let e = edges(&d, &t);
     let ctx = crate::problem::Context::new(&d.mesh, &t, &sc, &e, norm);
-    let est = run(&ctx, &u, StressField::Nodal(&sigma), true);
+    let est = run(&ctx, &u, StressField::Nodal(&sigma));
     (est, el.mu)
 }
 

@@ -169,13 +169,7 @@ pub enum ForceSource {
     Displacement,
 }
 
-/// The guaranteed bound of docs/design.md §6.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct Bound {
-    pub guaranteed: bool,
-    pub value: Option<f64>,
-    pub failed_hypotheses: Vec<String>,
-}
+pub use bound::{Bound, BoundTerms};
 
 /// Everything the estimate computes.
 #[derive(Clone, Debug, Serialize)]
@@ -197,39 +191,19 @@ pub struct Estimate {
     pub cells: CellTerms,
 }
 
+pub mod bound;
 pub mod boundary;
 pub mod interior;
 pub mod reaction;
 
-use crate::mesh::Mesh;
 use crate::problem::Context;
-use crate::read::scene::Scene;
 
 pub use crate::field::StressField;
 pub use crate::tolerance::ADMISSIBLE_RELATIVE as ADMISSIBLE_TOLERANCE;
 
-/// What the rest of [`run`] reads.
-struct Input<'a> {
-    mesh: &'a Mesh,
-    scene: &'a Scene,
-    u: &'a [[f64; 2]],
-    sigma: StressField<'a>,
-    norm: Norm,
-    symmetric_stress: bool,
-}
-
 /// Evaluates F and everything around it for `u` and `sigma` in the problem `ctx`
-/// (docs/design.md §3, §5, §6); `symmetric_stress`: σ_h is symmetric by construction (a
-/// symmetric layout in the file).
-pub fn run(ctx: &Context, u: &[[f64; 2]], sigma: StressField, symmetric_stress: bool) -> Estimate {
-    let inp = &Input {
-        mesh: ctx.mesh,
-        scene: ctx.scene,
-        u,
-        sigma,
-        norm: ctx.norm,
-        symmetric_stress,
-    };
+/// (docs/design.md §3, §5, §6). The bound measures the symmetry of σ_h itself.
+pub fn run(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Estimate {
     let length_scale = ctx.length_scale;
     let interior = interior::interior(ctx, u, sigma);
     let boundary = boundary::boundary(ctx, u, sigma);
@@ -255,9 +229,9 @@ pub fn run(ctx: &Context, u: &[[f64; 2]], sigma: StressField, symmetric_stress: 
     let eta = (functional.total >= 0.0).then(|| functional.total.sqrt());
     let relative =
         (functional.total >= 0.0 && energy > 0.0).then(|| (functional.total / energy).sqrt());
-    let bound = bound(inp, &functional, energy, &boundary.admissibility);
+    let bound = bound::bound(ctx, u, sigma, &functional, &boundary.admissibility, None);
     Estimate {
-        norm: inp.norm,
+        norm: ctx.norm,
         functional,
         eta,
         energy,
@@ -306,52 +280,6 @@ pub fn failed_checks(
     );
     check(&adm.neumann, ts, "σ_h misses the traction data: σn ≠ t");
     out
-}
-
-/// The guaranteed bound of docs/design.md §6 and the hypotheses that fail for this pair:
-/// value = ½‖C^{1/2}ε(u_h) − C^{−1/2}σ_h‖² + ⟨u_n − g, σ_n⟩ (the energy-norm constitutive
-/// term plus the complementarity term), an upper bound of ½‖u − u_h‖²_E + ½‖σ − σ_h‖²_A when
-/// every hypothesis holds.
-fn bound(inp: &Input, f: &Terms, energy: f64, adm: &Admissibility) -> Bound {
-    let frictional = inp
-        .scene
-        .boundaries
-        .iter()
-        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
-    let mut failed = Vec::new();
-    if frictional {
-        failed.push(
-            "Coulomb friction: the bound holds for frictionless contact only (docs/design.md §6)"
-                .to_string(),
-        );
-    }
-    if inp.norm != Norm::Energy {
-        failed.push(format!(
-            "norm = {}: the bound is stated in the energy norm",
-            inp.norm.as_str()
-        ));
-    }
-    failed.extend(failed_checks(
-        adm,
-        inp.u,
-        inp.sigma.scale(inp.mesh),
-        frictional,
-    ));
-    if f.equilibrium > ADMISSIBLE_TOLERANCE * ADMISSIBLE_TOLERANCE * energy {
-        failed.push(format!(
-            "σ_h is not equilibrated: div σ_h + f ≠ 0 (equilibrium term {:.3e})",
-            f.equilibrium
-        ));
-    }
-    if !inp.symmetric_stress {
-        failed.push("σ_h is not symmetric (9-component stress)".to_string());
-    }
-    let value = (inp.norm == Norm::Energy).then_some(f.constitutive + f.complementarity);
-    Bound {
-        guaranteed: failed.is_empty(),
-        value,
-        failed_hypotheses: failed,
-    }
 }
 
 pub use crate::geometry::point_set_diameter as diameter;

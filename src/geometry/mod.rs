@@ -260,6 +260,13 @@ pub fn straight_position(family: Family, x: &[[f64; 2]], k: usize) -> [f64; 2] {
     [p[0] + x[0][0], p[1] + x[0][1]]
 }
 
+/// Area of the straight triangle through `v` (unsigned).
+#[inline]
+pub fn straight_area(v: [[f64; 2]; 3]) -> f64 {
+    0.5 * ((v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]))
+        .abs()
+}
+
 /// |a − b|², without `hypot`: the reader refuses coordinates past ±1e100 and extents below
 /// 1e-100 (docs/design.md §4.2), so the squares neither overflow nor lose a meaningful digit,
 /// and `hypot` costs about three times as much (a measurable share of the mesh build).

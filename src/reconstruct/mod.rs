@@ -5,6 +5,7 @@
 
 pub mod displacement;
 pub mod nodal;
+pub mod patch;
 pub mod projection;
 pub mod stress;
 pub mod submesh;

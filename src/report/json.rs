@@ -6,7 +6,7 @@
 //! relative, stress {source, space, reason}, displacement {source, degree},
 //! admissibility {penetration_max, tension_max, cone_violation_max, dirichlet_max, neumann_max},
 //! contact {active_length, stick_length, slip_length, normal_force},
-//! bound {guaranteed, value, failed_hypotheses}, cells {count, worst: [{cell, eta}]}
+//! bound {guaranteed, energy_error, relative, statement, terms, failed_hypotheses, cells}, cells {count, worst: [{cell, eta}]}
 //! ```
 //!
 //! Extra keys: `version`, `solution`, `scene`, `length_scale`, the field names and spaces,
@@ -15,7 +15,7 @@
 //! contact intervals, η_T² and the dominant term of the worst cells, the boundaries, `marked`
 //! (only when marking was asked for), `stages` and `notes`.
 //!
-//! `eta` and `relative` are `null` when F < 0 (an inadmissible pair); `bound.value` is `null`
+//! `eta` and `relative` are `null` when F < 0 (an inadmissible pair); `bound.energy_error` is `null`
 //! when no bound was computed. Cell indices are indices in the VTU file. [`Report`] also
 //! derives `Deserialize`, so that tests and scripts can read the output back into typed
 //! structs.
@@ -160,8 +160,16 @@ pub struct Contact {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Bound {
     pub guaranteed: bool,
-    pub value: Option<f64>,
+    /// Upper bound of (½(Cε(u − u_h), ε(u − u_h)))^½ (units of η); `null` when no bound.
+    pub energy_error: Option<f64>,
+    /// energy_error / (½(Cε(u_h), ε(u_h)))^½.
+    pub relative: Option<f64>,
+    /// What the number bounds, in words.
+    pub statement: String,
+    pub terms: Option<crate::estimate::BoundTerms>,
     pub failed_hypotheses: Vec<String>,
+    /// Per cell (file order): η_PS,T² + (osc_T + as_T)²/c_min.
+    pub cells: Vec<f64>,
 }
 
 /// One of the worst cells.
@@ -297,8 +305,12 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
         },
         bound: Bound {
             guaranteed: est.bound.guaranteed,
-            value: est.bound.value,
+            energy_error: est.bound.energy_error,
+            relative: est.bound.relative,
+            statement: est.bound.statement.clone(),
+            terms: est.bound.terms.clone(),
             failed_hypotheses: est.bound.failed_hypotheses.clone(),
+            cells: est.bound.cells.clone(),
         },
         cells: Cells {
             count: mesh.cells.len(),
@@ -390,8 +402,9 @@ mod tests {
         assert_eq!(c["normal_force"], json!(12.5));
         assert_eq!(
             v["bound"],
-            json!({"guaranteed": false, "value": 9.5,
-                   "failed_hypotheses": ["u_h penetrates the obstacle"]})
+            json!({"guaranteed": false, "energy_error": 9.5, "relative": 0.5,
+                   "statement": "energy_error: not guaranteed", "terms": null,
+                   "failed_hypotheses": ["u_h penetrates the obstacle"], "cells": []})
         );
         assert_eq!(v["cells"]["count"], 5);
         let worst = v["cells"]["worst"].as_array().unwrap();
@@ -437,12 +450,12 @@ mod tests {
         est.functional.total = -0.25;
         est.eta = None;
         est.relative = None;
-        est.bound.value = None;
+        est.bound.energy_error = None;
         let v: Value =
             serde_json::from_str(&to_string(&report(&fixture::run(), &est, &data.mesh))).unwrap();
         assert_eq!(v["eta"], Value::Null);
         assert_eq!(v["relative"], Value::Null);
-        assert_eq!(v["bound"]["value"], Value::Null);
+        assert_eq!(v["bound"]["energy_error"], Value::Null);
         assert!(v.get("marked").is_none());
         assert_eq!(v["functional"]["total"], json!(-0.25));
     }

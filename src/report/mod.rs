@@ -316,8 +316,12 @@ pub(crate) mod fixture {
             },
             bound: Bound {
                 guaranteed: false,
-                value: Some(9.5),
+                energy_error: Some(9.5),
+                relative: Some(0.5),
+                statement: "energy_error: not guaranteed".into(),
+                terms: None,
                 failed_hypotheses: vec!["u_h penetrates the obstacle".into()],
+                cells: vec![],
             },
             cells,
         }

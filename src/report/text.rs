@@ -372,14 +372,34 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
 
     // 5. Bound.
     let b = &est.bound;
-    let value = b.value.map(n);
+    let value = b.energy_error.map(n);
     let status = match (b.guaranteed, &value) {
-        (true, Some(v)) => format!("guaranteed: {v}"),
+        (true, Some(v)) => format!("guaranteed: (½|||u − u_h|||²)^½ ≤ {v}"),
         (true, None) => "guaranteed, but no value".into(),
-        (false, Some(v)) => format!("NOT guaranteed (value {v})"),
-        (false, None) => "not computed".into(),
+        (false, Some(v)) => format!("NOT guaranteed: {v} (under the failed hypotheses below)"),
+        (false, None) => "none".into(),
     };
-    let _ = writeln!(o, "\nBound (energy error, DESIGN §6): {status}");
+    let _ = writeln!(
+        o,
+        "\nBound on the energy error (docs/design.md §6): {status}"
+    );
+    let _ = writeln!(o, "  {}", b.statement);
+    if let Some(t) = &b.terms {
+        let _ = writeln!(
+            o,
+            "  terms: Prager–Synge {}, complementarity {}, oscillation {}, asymmetry {}, \
+             projection {} (Korn constant up to {})",
+            n(t.prager_synge),
+            n(t.complementarity),
+            n(t.oscillation),
+            n(t.asymmetry),
+            n(t.projection),
+            num(t.korn_max, 3)
+        );
+    }
+    if let Some(r) = b.relative {
+        let _ = writeln!(o, "  relative: {} ({} %)", n(r), num(100.0 * r, 4));
+    }
     if !b.failed_hypotheses.is_empty() {
         let _ = writeln!(o, "  failed hypotheses:");
         for h in &b.failed_hypotheses {
@@ -585,7 +605,9 @@ mod tests {
         assert!(line(&t, "η = F^½").ends_with(&num(8.75f64.sqrt(), 6)));
         assert!(line(&t, "energy").contains("875 = ½(Cε(u_h), ε(u_h))"));
         assert!(line(&t, "relative error").contains("0.1 (10 %)"));
-        assert!(line(&t, "Bound").contains("NOT guaranteed (value 9.5)"));
+        assert!(
+            line(&t, "Bound").contains("NOT guaranteed: 9.5 (under the failed hypotheses below)")
+        );
         assert!(line(&t, "- u_h").contains("penetrates the obstacle"));
 
         assert!(line(&t, "Worst cells").contains("5 of 5"));
@@ -636,7 +658,7 @@ mod tests {
         assert!(line(&t, "η = F^½").contains("undefined: F = -0.25 < 0"));
         assert!(line(&t, "η = F^½").contains("inadmissible"));
         assert!(line(&t, "relative error").ends_with("undefined"));
-        assert!(line(&t, "Bound").ends_with("not computed"));
+        assert!(line(&t, "Bound").ends_with(": none"));
         assert!(line(&t, "Contact zone").contains("none"));
         assert!(!t.contains("\nTime"));
         assert!(!t.contains("Marking"));

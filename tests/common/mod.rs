@@ -1,3 +1,5 @@
-//! Helpers shared by the fuzz test binaries.
+//! Helpers shared by the test binaries (each binary uses a part of them).
+#![allow(dead_code)]
 
 pub mod alloc;
+pub mod cli;

@@ -1,0 +1,342 @@
+//! The error bound of docs/design.md §6 for the pair (v, τ) evaluated:
+//!
+//! ```text
+//! |||u − v||| ≤ ½ (R + √(R² + 4c)),   R = η_PS + η_osc + η_as,
+//! |||u − u_h||| ≤ |||u − v||| + ‖v − u_h‖_E (projection distance),
+//! ```
+//!
+//! with |||w|||² = (Cε(w), ε(w)), η_PS = ‖C^{1/2}ε(v) − C^{−1/2} sym τ‖, c = ⟨τ_n, v_n − g⟩ (+ the
+//! friction pairing, Tresca-labelled), and per cell, with r = div τ + f ⊥ rigid motions and
+//! ∫_T as τ = 0 (as τ = τ_xy − τ_yx):
+//!
+//! ```text
+//! (r, w)_T ≤ (h_T/π) (1 + ½K_T²)^{1/2} ‖r‖_T ‖ε(w)‖_T          (Payne–Weinberger, convex T)
+//! ½(as τ, rot w)_T ≤ ½ K_T ‖as τ‖_T ‖ε(w)‖_T,   K_T = 2/β_T     (§6.4: ∇rot w = 2 div(Mε(w)))
+//! ‖ε(w)‖ ≤ |||w||| / √c_min,   c_min = min(2μ, 2(μ + λ)).
+//! ```
+//!
+//! β_T is the inf-sup constant of the divergence on T; it is taken as sin(θ_min/4), the
+//! Horgan–Payne bound with the incentre as star centre (HP angle θ_min/2). That bound is not
+//! proven for every domain (Costabel–Dauge 2015), so every term it enters is reported and the
+//! bound is called guaranteed only when those terms vanish to round-off.
+//!
+//! `energy_error` bounds (½|||u − u_h|||²)^½, the units of η.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::{Admissibility, Terms, failed_checks};
+use crate::field::StressField;
+use crate::geometry::values::{rule_degree, sub_point};
+use crate::problem::Context;
+use crate::quadrature::triangle_rule_cached;
+use crate::tolerance::{ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE};
+
+/// The terms of the bound (units of |||·|||, i.e. √(2 × energy); `complementarity` in energy).
+#[derive(Clone, Debug, Default, Serialize, serde::Deserialize, PartialEq)]
+pub struct BoundTerms {
+    /// η_PS = ‖C^{1/2}ε(v) − C^{−1/2} sym τ‖.
+    pub prager_synge: f64,
+    /// c = ⟨τ_n, v_n − g⟩_{Γ_C} (+ ∫ 𝔉|τ_n||v_t| + τ_t v_t with friction).
+    pub complementarity: f64,
+    /// η_osc: the body-force oscillation f − Π_k f.
+    pub oscillation: f64,
+    /// η_as: the asymmetry of τ.
+    pub asymmetry: f64,
+    /// ‖v − u_h‖_E when the displacement was projected onto K_u, else 0.
+    pub projection: f64,
+    /// Largest local Korn constant K_T used.
+    pub korn_max: f64,
+}
+
+/// The bound and its status.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Bound {
+    pub guaranteed: bool,
+    /// Upper bound of (½|||u − u_h|||²)^½ when computable (units of η).
+    pub energy_error: Option<f64>,
+    /// energy_error / (½|||u_h|||²)^½.
+    pub relative: Option<f64>,
+    /// What the number bounds.
+    pub statement: String,
+    pub terms: Option<BoundTerms>,
+    pub failed_hypotheses: Vec<String>,
+    /// Per cell: η_PS,T² + (osc_T + as_T)²/c_min (units of |||·|||²).
+    pub cells: Vec<f64>,
+}
+
+/// Per-cell results of the pass over the cells.
+#[derive(Clone, Copy, Default)]
+struct Cell {
+    ps2: f64,
+    local: f64,
+    osc: f64,
+    asym: f64,
+    energy: f64,
+    /// Cell moment defects, relative: rigid-motion moments of r, the mean of as τ.
+    moment: f64,
+    mean_as: f64,
+    korn: f64,
+}
+
+/// The bound for displacement `v` and stress `sigma` (docs/design.md §6).
+pub fn bound(
+    ctx: &Context,
+    v: &[[f64; 2]],
+    sigma: StressField,
+    f: &Terms,
+    adm: &Admissibility,
+    projection_distance: Option<f64>,
+) -> Bound {
+    let mesh = ctx.mesh;
+    let el = ctx.elastic;
+    let mut failed = Vec::new();
+    let frictional = ctx
+        .scene
+        .boundaries
+        .iter()
+        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
+    if el.lambda.is_infinite() {
+        return Bound {
+            statement: "no bound: at ν = 0.5 (λ = ∞) the energy norm of u − u_h is not defined \
+                        for a displacement that is not divergence-free"
+                .into(),
+            failed_hypotheses: vec!["ν = 0.5: no bound in the energy norm".into()],
+            ..Default::default()
+        };
+    }
+    if mesh.family.iter().any(|f| f.is_quad()) {
+        return Bound {
+            statement: "no bound: not implemented for quadrilateral cells".into(),
+            failed_hypotheses: vec!["quadrilateral cells: the bound is not implemented".into()],
+            ..Default::default()
+        };
+    }
+    let c_min = (2.0 * el.mu).min(2.0 * (el.mu + el.lambda));
+    let f_expr = ctx.scene.body_force.as_ref();
+    let f_poly = f_expr.is_none_or(|f| f[0].is_constant() && f[1].is_constant());
+    // Round-off floor of the moment checks: the stress scale times the cell's area (a zero
+    // divergence or asymmetry has nothing else to be measured against).
+    let sigma_scale = sigma.scale(mesh);
+    let cells: Vec<Cell> = (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|t| {
+            let fam = mesh.family[t];
+            let x = mesh.coords(t);
+            let nodes = mesh.nodes(t);
+            let sh = mesh.shape[t];
+            let deg = if f_poly { 8 } else { 12 };
+            let rule = triangle_rule_cached(rule_degree(sh, deg));
+            let verts = [x[0], x[1], x[2]];
+            let h = crate::geometry::diameter(fam, &x[..fam.nodes()]);
+            let korn = korn_constant(verts);
+            let centre = [
+                (verts[0][0] + verts[1][0] + verts[2][0]) / 3.0,
+                (verts[0][1] + verts[1][1] + verts[2][1]) / 3.0,
+            ];
+            let mut c = Cell {
+                korn,
+                ..Default::default()
+            };
+            let (mut r2, mut a2, mut mom, mut mscale, mut amean, mut ascale) =
+                (0.0, 0.0, [0.0; 3], 0.0, 0.0, 0.0);
+            for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+                let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+                let w = wq * sp.jac.det;
+                let mut gu = [[0.0; 2]; 2];
+                let mut sn = [0.0; 4];
+                let mut dn = [0.0; 2];
+                for (k, &p) in nodes.iter().enumerate() {
+                    let g = sp.grad[k];
+                    let uu = v[p as usize];
+                    for a in 0..2 {
+                        gu[a][0] += uu[a] * g[0];
+                        gu[a][1] += uu[a] * g[1];
+                    }
+                    if let StressField::Nodal(s) = sigma {
+                        let s = s[p as usize];
+                        for (m, sm) in sn.iter_mut().enumerate() {
+                            *sm += s[m] * sp.phi[k];
+                        }
+                        dn[0] += s[0] * g[0] + s[1] * g[1];
+                        dn[1] += s[2] * g[0] + s[3] * g[1];
+                    }
+                }
+                let (s, d) = match sigma {
+                    StressField::Nodal(_) => (sn, dn),
+                    StressField::Rt(rt) => rt.at(rt.first[t] as usize, &sp.jac, xi),
+                };
+                let sym = 0.5 * (gu[0][1] + gu[1][0]);
+                let eps = [gu[0][0], sym, sym, gu[1][1]];
+                let ss = 0.5 * (s[1] + s[2]);
+                let a = el.compliance([s[0], ss, ss, s[3]]);
+                let e = [eps[0] - a[0], eps[1] - a[1], eps[2] - a[2], eps[3] - a[3]];
+                let tr = e[0] + e[3];
+                c.ps2 += w
+                    * (2.0 * el.mu * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3])
+                        + el.lambda * tr * tr);
+                let tre = eps[0] + eps[3];
+                c.energy += w
+                    * 0.5
+                    * (2.0 * el.mu * (eps[0] * eps[0] + 2.0 * eps[1] * eps[1] + eps[3] * eps[3])
+                        + el.lambda * tre * tre);
+                let fv = match f_expr {
+                    None => [0.0; 2],
+                    Some(fe) => [
+                        fe[0].eval(sp.x[0], sp.x[1], 0.0),
+                        fe[1].eval(sp.x[0], sp.x[1], 0.0),
+                    ],
+                };
+                let r = [d[0] + fv[0], d[1] + fv[1]];
+                r2 += w * (r[0] * r[0] + r[1] * r[1]);
+                let rot = [-(sp.x[1] - centre[1]), sp.x[0] - centre[0]];
+                mom[0] += w * r[0];
+                mom[1] += w * r[1];
+                mom[2] += w * (r[0] * rot[0] + r[1] * rot[1]);
+                mscale += w * h * (d[0].abs() + d[1].abs() + fv[0].abs() + fv[1].abs());
+                let asv = s[1] - s[2];
+                a2 += w * asv * asv;
+                amean += w * asv;
+                ascale += w * (s[1].abs() + s[2].abs());
+            }
+            c.osc = h / std::f64::consts::PI * (1.0 + 0.5 * korn * korn).sqrt() * r2.sqrt();
+            c.asym = 0.5 * korn * a2.sqrt();
+            let area = crate::geometry::straight_area(verts);
+            mscale = mscale.max(sigma_scale * area);
+            ascale = ascale.max(sigma_scale * area);
+            let mnorm = (mom[0] * h).abs().max((mom[1] * h).abs()).max(mom[2].abs());
+            c.moment = if mscale > 0.0 { mnorm / mscale } else { 0.0 };
+            c.mean_as = if ascale > 0.0 {
+                amean.abs() / ascale
+            } else {
+                0.0
+            };
+            c.local = c.ps2 + (c.osc + c.asym).powi(2) / c_min;
+            c
+        })
+        .collect();
+    let ps = cells.iter().map(|c| c.ps2).sum::<f64>().sqrt();
+    let osc = (cells.iter().map(|c| c.osc * c.osc).sum::<f64>() / c_min).sqrt();
+    let asym = (cells.iter().map(|c| c.asym * c.asym).sum::<f64>() / c_min).sqrt();
+    let energy: f64 = cells.iter().map(|c| c.energy).sum();
+    let korn_max = cells.iter().fold(0.0f64, |m, c| m.max(c.korn));
+    let comp = f.complementarity + f.friction;
+    let projection = projection_distance.unwrap_or(0.0);
+    let r = ps + osc + asym;
+    let w = 0.5 * (r + (r * r + 4.0 * comp.max(0.0)).sqrt()) + projection;
+    let energy_error = (0.5f64).sqrt() * w;
+
+    if frictional {
+        failed.push(
+            "Coulomb friction: the number bounds the error of the Tresca problem with the \
+             threshold 𝔉|σ_h,n| of this stress, not that of the Coulomb problem"
+                .to_string(),
+        );
+    }
+    failed.extend(failed_checks(adm, v, sigma.scale(mesh), frictional));
+    let unbalanced = cells
+        .iter()
+        .filter(|c| c.moment > BOUND_MOMENT_RELATIVE)
+        .count();
+    let mut computable = true;
+    if unbalanced > 0 {
+        computable = false;
+        failed.push(format!(
+            "σ_h is not equilibrated: div σ_h + f has non-zero moments against the rigid motions \
+             on {unbalanced} cells (largest relative moment {:.1e}); use --stress patch",
+            cells.iter().fold(0.0f64, |m, c| m.max(c.moment))
+        ));
+    }
+    let curved = mesh
+        .shape
+        .iter()
+        .any(|s| *s == crate::geometry::Shape::Curved);
+    if curved && osc > 0.0 {
+        failed.push(
+            "curved cells: Payne–Weinberger's h_T/π is proven for convex cells; the \
+             oscillation term uses it on curved cells"
+                .to_string(),
+        );
+    }
+    let skew_means = cells
+        .iter()
+        .filter(|c| c.mean_as > BOUND_MOMENT_RELATIVE)
+        .count();
+    if skew_means > 0 {
+        failed.push(format!(
+            "∫_T as σ_h ≠ 0 on {skew_means} cells: the local Korn argument needs mean-free \
+             asymmetry (P1 displacements), so the asymmetry term is an estimate"
+        ));
+    }
+    if (osc + asym) > ADMISSIBLE_RELATIVE * (2.0 * energy).sqrt() {
+        failed.push(format!(
+            "the local Korn constants K_T = 2/sin(θ_min/4) (up to {korn_max:.2}) rest on the \
+             Horgan–Payne bound of the inf-sup constant, not proven for every triangle \
+             (Costabel–Dauge 2015): asymmetry term {asym:.3e}, oscillation term {osc:.3e}"
+        ));
+    }
+    let guaranteed = computable && failed.is_empty() && w.is_finite();
+    let statement = if !computable {
+        "no bound: the stress is not equilibrated (the FOSLS η is an estimate, not a bound)"
+            .to_string()
+    } else if guaranteed {
+        "energy_error ≥ (½(Cε(u − u_h), ε(u − u_h)))^½, guaranteed".to_string()
+    } else {
+        "energy_error: the bound (½(Cε(u − u_h), ε(u − u_h)))^½ ≤ energy_error holds under the \
+         failed hypotheses listed; not guaranteed"
+            .to_string()
+    };
+    Bound {
+        guaranteed,
+        energy_error: computable.then_some(energy_error),
+        relative: (computable && energy > 0.0).then(|| energy_error / energy.sqrt()),
+        statement,
+        terms: Some(BoundTerms {
+            prager_synge: ps,
+            complementarity: comp,
+            oscillation: osc,
+            asymmetry: asym,
+            projection,
+            korn_max,
+        }),
+        failed_hypotheses: failed,
+        cells: cells.iter().map(|c| c.local).collect(),
+    }
+}
+
+/// K_T = 2/β_T with β_T ≥ sin(ω_T/2), ω_T = θ_min/2 the Horgan–Payne angle of the triangle
+/// seen from its incentre (the smallest angle between a boundary tangent and the ray from the
+/// incentre is half the smallest vertex angle). Module doc for the status of this constant.
+pub fn korn_constant(v: [[f64; 2]; 3]) -> f64 {
+    let mut theta_min = std::f64::consts::PI;
+    for i in 0..3 {
+        let a = v[i];
+        let b = v[(i + 1) % 3];
+        let c = v[(i + 2) % 3];
+        let u = [b[0] - a[0], b[1] - a[1]];
+        let w = [c[0] - a[0], c[1] - a[1]];
+        let cross = (u[0] * w[1] - u[1] * w[0]).abs();
+        let dot = u[0] * w[0] + u[1] * w[1];
+        theta_min = theta_min.min(cross.atan2(dot));
+    }
+    2.0 / (theta_min / 4.0).sin()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn korn_constant_of_the_equilateral_and_right_triangles() {
+        // θ_min = 60°: 2/sin 15° = 7.727…; θ_min = 45°: 2/sin 11.25° = 10.25…
+        let s = 3f64.sqrt() / 2.0;
+        let k = korn_constant([[0.0, 0.0], [1.0, 0.0], [0.5, s]]);
+        assert!((k - 2.0 / (15f64.to_radians()).sin()).abs() < 1e-12, "{k}");
+        let k = korn_constant([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+        assert!(
+            (k - 2.0 / (11.25f64.to_radians()).sin()).abs() < 1e-12,
+            "{k}"
+        );
+    }
+}

@@ -1,0 +1,796 @@
+//! Equilibrated stress reconstruction on vertex patches (docs/design.md §5.10; Braess–Schöberl
+//! 2008, Ern–Vohralík 2015 for the patch problems, Bertrand–Kober–Moldenhauer–Starke 2021 for
+//! the weak symmetry of elasticity).
+//!
+//! With ψ_a the P1 hat function of vertex a (the barycentric coordinate of the cell's reference
+//! map, so Σ_a ψ_a = 1 on every cell, curved ones too) and ω_a its patch, each patch solves
+//!
+//! ```text
+//! σ_a = argmin ½‖τ − ψ_a Cε(u_h)‖²_A + ⟨τ_n, ψ_a (u_n − g)⟩_{Γ_C ∩ ∂ω_a}
+//!   over τ ∈ RT_k(ω_a)² row-wise with
+//!   (div τ, q)_T = (−ψ_a f + Cε(u_h)∇ψ_a, q)_T     for q ∈ P_k(T̂) ∘ F_T⁻¹, every T ⊂ ω_a,
+//!   ∫_T as τ = 0 on every T (weak symmetry, P2 displacements),
+//!   τn = 0 on ∂ω_a inside Ω, τn|x'| = Π_k(ψ_a t|x'|) on Γ_N and free edges (t = 0),
+//!   τn free on Γ_D, and on Γ_C τ_t = 0, τ_n ≤ 0 (frictionless) or |τ_t| ≤ −𝔉τ_n (Coulomb),
+//! ```
+//!
+//! and σ_h = Σ_a σ_a. Since Σ_a ψ_a = 1 and Σ_a ∇ψ_a = 0, div σ_h = −Π_k f in every cell (on
+//! curved cells in the reference moments), σ_h n = Π_k t on Γ_N, and the contact constraints
+//! hold for the sum because they hold for every summand (cones are convex). Each patch problem
+//! is solvable exactly when u_h satisfies the discrete equations tested with ψ_a e_r (and, for
+//! the weak symmetry, ψ_a × the rotation field): true for any Galerkin solution; otherwise the
+//! constraints are met in the least-squares sense and the defect is reported.
+//!
+//! The contact sign constraints on RT_2 edges are imposed on the Bernstein coefficients of the
+//! quadratic flux (non-positive Bernstein coefficients ⇒ non-positive on the whole edge); on
+//! RT_1 the Bernstein coefficients are the end values.
+//!
+//! Every patch is an independent dense QP (a few dozen to ~150 unknowns), solved by a
+//! primal–dual active set on the sign-constrained variables, with the equality constraints
+//! orthonormalised (modified Gram–Schmidt, dependent rows dropped) and eliminated through the
+//! Schur complement. Patches run in parallel (rayon); the result is summed in vertex order, so
+//! it does not depend on the thread count.
+
+use faer::prelude::Solve;
+use faer::{Mat, Side};
+use rayon::prelude::*;
+
+use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
+pub use crate::field::RtStress;
+use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
+use crate::mesh::NONE;
+use crate::problem::{Condition, Context};
+use crate::quadrature::{line_rule_cached, triangle_rule_cached};
+use crate::read::scene::BoundaryKind;
+use crate::tolerance::{
+    EDGE_DEGREE, MIN_CONE_FRICTION, PATCH_ACTIVE_SET_ITERATIONS, PATCH_DEFECT_RELATIVE,
+    PATCH_DEPENDENT_ROW,
+};
+
+/// What the patch reconstruction reports besides the stress.
+#[derive(Clone, Debug, Default)]
+pub struct PatchInfo {
+    pub patches: usize,
+    /// Largest number of unknowns of one patch.
+    pub max_unknowns: usize,
+    /// Sign-constrained contact variables active (= 0) at the end, over all patches.
+    pub active: usize,
+    /// Patches whose active set did not settle within the cap.
+    pub unsettled: usize,
+    /// Patches whose equality constraints could not be met (u_h is not a Galerkin solution of
+    /// this problem there), and the largest relative defect.
+    pub incompatible: usize,
+    pub max_defect: f64,
+    /// Whether ∫_T as σ_h = 0 was imposed (P2 displacements).
+    pub weak_symmetry: bool,
+}
+
+/// The result.
+pub struct Reconstruction {
+    pub stress: RtStress,
+    pub info: PatchInfo,
+}
+
+/// An affine expression Σ c_j x_j + c₀ in the patch unknowns.
+#[derive(Clone, Debug, Default)]
+struct Lin {
+    terms: Vec<(usize, f64)>,
+    c: f64,
+}
+
+/// Bernstein-to-point-value matrix of the edge slots: value at slot i = Σ_j B_ij b_j.
+fn bernstein(order: RtOrder) -> &'static [[f64; 3]] {
+    match order.edge_dofs() {
+        1 => &[[1.0, 0.0, 0.0]],
+        2 => &[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        _ => &[[1.0, 0.0, 0.0], [0.25, 0.5, 0.25], [0.0, 0.0, 1.0]],
+    }
+}
+
+/// Coefficients of Π_k g on [0, 1] in point values at `points`, from samples of g at a Gauss
+/// rule: the L² projection onto the Legendre polynomials of degree ≤ k, evaluated.
+fn project_points(k: usize, points: &[f64], g: impl Fn(f64) -> f64) -> [f64; 3] {
+    let lr = line_rule_cached(EDGE_DEGREE);
+    let leg = |j: usize, s: f64| match j {
+        0 => 1.0,
+        1 => 2.0 * s - 1.0,
+        _ => 6.0 * s * s - 6.0 * s + 1.0,
+    };
+    let mut c = [0.0; 3];
+    for (&s, &w) in lr.points.iter().zip(&lr.weights) {
+        let v = g(s);
+        for (j, cj) in c.iter_mut().enumerate().take(k + 1) {
+            *cj += w * v * leg(j, s);
+        }
+    }
+    let mut out = [0.0; 3];
+    for (i, &s) in points.iter().enumerate() {
+        out[i] = (0..=k).map(|j| c[j] * (2 * j + 1) as f64 * leg(j, s)).sum();
+    }
+    out
+}
+
+/// The RT order of the patch reconstruction for displacement degree p: RT_p (ψ_a Cε(u_h) has
+/// degree p, so RT_p reproduces Cε(u_h) when it is the exact stress; design §5.10).
+pub fn order_for_degree(p: usize) -> RtOrder {
+    match p {
+        0 | 1 => RtOrder::Rt1,
+        _ => RtOrder::Rt1,
+    }
+}
+
+/// Reconstructs σ_h patch by patch (module doc). Triangle meshes only; λ < ∞.
+pub fn reconstruct(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    order: RtOrder,
+) -> Result<Reconstruction, String> {
+    let mesh = ctx.mesh;
+    if mesh.family.iter().any(|f| f.is_quad()) {
+        return Err(
+            "the patch reconstruction is implemented for triangle meshes only \
+                    (quadrilateral cells: use --stress global)"
+                .into(),
+        );
+    }
+    if ctx.elastic.lambda.is_infinite() {
+        return Err(
+            "the patch reconstruction needs λ < ∞ (ν < 0.5): at ν = 0.5 Cε(u_h) is \
+                    undefined"
+                .into(),
+        );
+    }
+    if order.k() == 0 {
+        return Err("the patch reconstruction needs RT_k with k ≥ 1".into());
+    }
+    let topo = ctx.topo;
+    let mut condition: Vec<Option<Condition>> = vec![None; topo.edges.len()];
+    for be in ctx.edges {
+        condition[be.edge as usize] = Some(be.condition);
+    }
+    // Vertex patches: (cell, local vertex) per vertex, CSR.
+    let npts = mesh.points.len();
+    let mut count = vec![0u32; npts + 1];
+    for t in 0..mesh.len() {
+        for &v in &mesh.nodes(t)[..3] {
+            count[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..npts {
+        count[i + 1] += count[i];
+    }
+    let mut fill = count.clone();
+    let mut members = vec![(0u32, 0u8); count[npts] as usize];
+    for t in 0..mesh.len() {
+        for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
+            members[fill[v as usize] as usize] = (t as u32, j as u8);
+            fill[v as usize] += 1;
+        }
+    }
+    let weak_symmetry = mesh.degree >= 2;
+    let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
+    let outs: Vec<PatchOut> = vertices
+        .par_iter()
+        .with_min_len(64)
+        .map(|&v| {
+            let cells = &members[count[v] as usize..count[v + 1] as usize];
+            solve_patch(ctx, u, order, &condition, v as u32, cells, weak_symmetry)
+        })
+        .collect();
+    let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
+    let mut info = PatchInfo {
+        patches: outs.len(),
+        weak_symmetry,
+        ..Default::default()
+    };
+    for o in outs {
+        for (t, c) in o.cells {
+            for r in 0..2 {
+                for i in 0..MAX_RT_DOFS {
+                    coefficients[t as usize][r][i] += c[r][i];
+                }
+            }
+        }
+        info.max_unknowns = info.max_unknowns.max(o.unknowns);
+        info.active += o.active;
+        info.unsettled += usize::from(!o.settled);
+        if o.defect > PATCH_DEFECT_RELATIVE {
+            info.incompatible += 1;
+        }
+        info.max_defect = info.max_defect.max(o.defect);
+    }
+    let first = (0..=mesh.len() as u32).collect();
+    Ok(Reconstruction {
+        stress: RtStress {
+            order,
+            coefficients,
+            first,
+        },
+        info,
+    })
+}
+
+struct PatchOut {
+    cells: Vec<(u32, [[f64; MAX_RT_DOFS]; 2])>,
+    unknowns: usize,
+    active: usize,
+    settled: bool,
+    defect: f64,
+}
+
+/// One patch: unknowns, local maps, quadrature, QP (module doc).
+fn solve_patch(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    order: RtOrder,
+    condition: &[Option<Condition>],
+    vertex: u32,
+    cells: &[(u32, u8)],
+    weak_symmetry: bool,
+) -> PatchOut {
+    let mesh = ctx.mesh;
+    let topo = ctx.topo;
+    let el = ctx.elastic;
+    let scene = ctx.scene;
+    let ne = order.edge_dofs();
+    let nloc = order.dofs();
+    let nint = order.interior_dofs();
+    let bern = bernstein(order);
+    let mut nvar = 0usize;
+    let mut bounded: Vec<usize> = Vec::new();
+    // Extra equalities x_j = 0 (contact edges facing an infinite gap).
+    let mut zero_vars: Vec<usize> = Vec::new();
+    // Global edge → its slot values per row (global orientation).
+    let mut edge_ids: Vec<u32> = Vec::new();
+    let mut edge_vals: Vec<[[Lin; 3]; 2]> = Vec::new();
+    for &(t, _) in cells {
+        let t = t as usize;
+        for l in 0..3 {
+            let e = topo.cell_edges[t][l];
+            if edge_ids.contains(&e) {
+                continue;
+            }
+            let [ea, eb] = topo.edges[e as usize];
+            let radial = ea == vertex || eb == vertex;
+            let boundary = topo.edge_cells[e as usize][1] == NONE;
+            let mut vals: [[Lin; 3]; 2] = Default::default();
+            let forward = topo.cell_edge_sign[t][l] > 0;
+            let sgn = if forward { 1.0 } else { -1.0 };
+            let owner_s = |sg: f64| if forward { sg } else { 1.0 - sg };
+            let cond = if boundary {
+                condition[e as usize].unwrap_or(Condition::Free)
+            } else {
+                Condition::Free
+            };
+            let fam = mesh.family[t];
+            let x = mesh.coords(t);
+            let sh = mesh.shape[t];
+            match (boundary, cond) {
+                (false, _) if radial => {
+                    for row in vals.iter_mut() {
+                        for v in row.iter_mut().take(ne) {
+                            v.terms.push((nvar, 1.0));
+                            nvar += 1;
+                        }
+                    }
+                }
+                (false, _) => {}
+                (true, Condition::Dirichlet(_)) => {
+                    for row in vals.iter_mut() {
+                        for v in row.iter_mut().take(ne) {
+                            v.terms.push((nvar, 1.0));
+                            nvar += 1;
+                        }
+                    }
+                }
+                (true, Condition::Free) => {}
+                (true, Condition::Neumann(b)) => {
+                    if radial {
+                        let BoundaryKind::Neumann { traction } = &scene.boundaries[b].kind else {
+                            unreachable!("a Neumann edge has a traction")
+                        };
+                        // ψ_a along the owner's local edge l (from local vertex l to l + 1).
+                        let a_first = mesh.nodes(t)[l] == vertex;
+                        let local_points: Vec<f64> =
+                            order.edge_points().iter().map(|&s| owner_s(s)).collect();
+                        for (r, row) in vals.iter_mut().enumerate() {
+                            let p = project_points(order.k(), &local_points, |s| {
+                                let (sp, _, len, _) =
+                                    sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, s);
+                                let psi = if a_first { 1.0 - s } else { s };
+                                psi * traction[r].eval(sp.x[0], sp.x[1], 0.0) * len
+                            });
+                            for (slot, v) in row.iter_mut().enumerate().take(ne) {
+                                v.c = sgn * p[slot];
+                            }
+                        }
+                    }
+                }
+                (true, Condition::Contact(b)) => {
+                    let BoundaryKind::Contact(spec) = &scene.boundaries[b].kind else {
+                        unreachable!("a contact edge has a contact spec")
+                    };
+                    let fr = spec.friction;
+                    let cone = fr >= MIN_CONE_FRICTION;
+                    let base = nvar;
+                    // Two variable sets per Bernstein index: (y_n, y_t) or the cone (w₁, w₂).
+                    nvar += 2 * ne;
+                    for j in 0..ne {
+                        if cone {
+                            bounded.push(base + 2 * j);
+                            bounded.push(base + 2 * j + 1);
+                        } else {
+                            bounded.push(base + 2 * j);
+                            zero_vars.push(base + 2 * j + 1);
+                        }
+                    }
+                    for (slot, &sg) in order.edge_points().iter().enumerate() {
+                        let (sp, normal, _, _) =
+                            sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, owner_s(sg));
+                        let cn = spec.direction(normal);
+                        let ct = [-cn[1], cn[0]];
+                        if !spec.gap_at(sp.x, cn).is_finite() {
+                            for j in 0..ne {
+                                zero_vars.push(base + 2 * j);
+                            }
+                        }
+                        let (c0, c1) = if cone {
+                            let h = 0.5 / fr;
+                            (
+                                [h * cn[0] + 0.5 * ct[0], h * cn[1] + 0.5 * ct[1]],
+                                [h * cn[0] - 0.5 * ct[0], h * cn[1] - 0.5 * ct[1]],
+                            )
+                        } else {
+                            (cn, ct)
+                        };
+                        for (r, row) in vals.iter_mut().enumerate() {
+                            for j in 0..ne {
+                                let bij = bern[slot][j];
+                                if bij != 0.0 {
+                                    row[slot].terms.push((base + 2 * j, sgn * bij * c0[r]));
+                                    row[slot].terms.push((base + 2 * j + 1, sgn * bij * c1[r]));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            edge_ids.push(e);
+            edge_vals.push(vals);
+        }
+    }
+    let interior_base = nvar;
+    nvar += cells.len() * 2 * nint;
+
+    let k = order.k();
+    let nq = (k + 1) * (k + 2) / 2;
+    let mut m = vec![0.0; nvar * nvar];
+    let mut bvec = vec![0.0; nvar];
+    let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+    let f_expr = scene.body_force.as_ref();
+    let nl = 2 * nloc;
+    let mut locals: Vec<Vec<Lin>> = Vec::with_capacity(cells.len());
+    for (ci, &(t, j)) in cells.iter().enumerate() {
+        let t = t as usize;
+        let j = j as usize;
+        let fam = mesh.family[t];
+        let x = mesh.coords(t);
+        let nodes = mesh.nodes(t);
+        let sh = mesh.shape[t];
+        // Local function (row r, DOF i) → affine expression in the unknowns.
+        let mut map: Vec<Lin> = vec![Lin::default(); nl];
+        for r in 0..2 {
+            for l in 0..3 {
+                let e = topo.cell_edges[t][l];
+                let pos = edge_ids.iter().position(|&x| x == e).expect("patch edge");
+                let forward = topo.cell_edge_sign[t][l] > 0;
+                for (loc, slot, sign) in rt::local_to_global_edge(order, l, forward) {
+                    let g = &edge_vals[pos][r][slot];
+                    map[r * nloc + loc] = Lin {
+                        terms: g.terms.iter().map(|&(v, c)| (v, sign * c)).collect(),
+                        c: sign * g.c,
+                    };
+                }
+            }
+            for mi in 0..nint {
+                map[r * nloc + 3 * ne + mi] = Lin {
+                    terms: vec![(interior_base + (ci * 2 + r) * nint + mi, 1.0)],
+                    c: 0.0,
+                };
+            }
+        }
+        let p = mesh.degree;
+        let mut deg = (2 * k + 2).max(k + p + 1).max(2 * p);
+        if f_expr.is_some_and(|f| !(f[0].is_constant() && f[1].is_constant())) {
+            deg = deg.max(10);
+        }
+        let rule = triangle_rule_cached(rule_degree(sh, deg));
+        let mut mloc = vec![0.0; nl * nl];
+        let mut bloc = vec![0.0; nl];
+        // Divergence rows (row r, moment q) and the symmetry row, over local functions.
+        let mut drow = vec![vec![0.0; nl]; 2 * nq];
+        let mut drhs = vec![0.0; 2 * nq];
+        let mut srow = vec![0.0; nl];
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+            let jac = sp.jac;
+            let w = wq * jac.det;
+            let mut gu = [[0.0; 2]; 2];
+            for (kk, &pn) in nodes.iter().enumerate() {
+                let g = sp.grad[kk];
+                let uu = u[pn as usize];
+                for a in 0..2 {
+                    gu[a][0] += uu[a] * g[0];
+                    gu[a][1] += uu[a] * g[1];
+                }
+            }
+            let sym = 0.5 * (gu[0][1] + gu[1][0]);
+            let eps = [gu[0][0], sym, sym, gu[1][1]];
+            let sig = el.stress(eps);
+            let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            let glam = [[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]];
+            let psi = lam[j];
+            let gpsi = jac.physical_gradient(glam[j]);
+            let f = match f_expr {
+                None => [0.0; 2],
+                Some(fe) => [
+                    fe[0].eval(sp.x[0], sp.x[1], 0.0),
+                    fe[1].eval(sp.x[0], sp.x[1], 0.0),
+                ],
+            };
+            let target = [
+                -psi * f[0] + sig[0] * gpsi[0] + sig[1] * gpsi[1],
+                -psi * f[1] + sig[2] * gpsi[0] + sig[3] * gpsi[1],
+            ];
+            let qv = [
+                1.0,
+                xi[0],
+                xi[1],
+                xi[0] * xi[0],
+                xi[0] * xi[1],
+                xi[1] * xi[1],
+            ];
+            let (v, d) = rt::piola(order, &jac, xi);
+            let mut tau = vec![[0.0; 4]; nl];
+            let mut at = vec![[0.0; 4]; nl];
+            for r in 0..2 {
+                for i in 0..nloc {
+                    let a = r * nloc + i;
+                    tau[a][2 * r] = v[i][0];
+                    tau[a][2 * r + 1] = v[i][1];
+                    at[a] = el.compliance(tau[a]);
+                    for q in 0..nq {
+                        drow[r * nq + q][a] += w * d[i] * qv[q];
+                    }
+                }
+            }
+            for r in 0..2 {
+                for q in 0..nq {
+                    drhs[r * nq + q] += w * target[r] * qv[q];
+                }
+            }
+            for a in 0..nl {
+                srow[a] += w * (tau[a][1] - tau[a][2]);
+                bloc[a] += w * psi * dot4(tau[a], eps);
+                for c in 0..=a {
+                    mloc[a * nl + c] += w * dot4(at[a], tau[c]);
+                }
+            }
+        }
+        // Complementarity term on contact edges: + ⟨τ_n, ψ_a (u_n − g)⟩.
+        for l in 0..3 {
+            let e = topo.cell_edges[t][l] as usize;
+            let Some(Condition::Contact(bi)) = condition[e] else {
+                continue;
+            };
+            if topo.edge_cells[e][1] != NONE {
+                continue;
+            }
+            let BoundaryKind::Contact(spec) = &scene.boundaries[bi].kind else {
+                continue;
+            };
+            let lr = line_rule_cached(EDGE_DEGREE);
+            for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
+                let (sp, normal, len, xs) = sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, s);
+                let lam = [1.0 - xs[0] - xs[1], xs[0], xs[1]];
+                let psi = lam[j];
+                if psi == 0.0 {
+                    continue;
+                }
+                let cn = spec.direction(normal);
+                let gap = spec.gap_at(sp.x, cn);
+                if !gap.is_finite() {
+                    continue;
+                }
+                let mut uu = [0.0; 2];
+                for (kk, &pn) in nodes.iter().enumerate() {
+                    uu[0] += u[pn as usize][0] * sp.phi[kk];
+                    uu[1] += u[pn as usize][1] * sp.phi[kk];
+                }
+                let un = cn[0] * uu[0] + cn[1] * uu[1];
+                let (v, _) = rt::piola(order, &sp.jac, xs);
+                for r in 0..2 {
+                    for i in 0..nloc {
+                        let flux = v[i][0] * normal[0] + v[i][1] * normal[1];
+                        bloc[r * nloc + i] -= wq * len * psi * (un - gap) * cn[r] * flux;
+                    }
+                }
+            }
+        }
+        // Scatter: c = L x + c₀.
+        for a in 0..nl {
+            for c in 0..nl {
+                let mv = if c <= a {
+                    mloc[a * nl + c]
+                } else {
+                    mloc[c * nl + a]
+                };
+                if mv == 0.0 {
+                    continue;
+                }
+                for &(va, ca) in &map[a].terms {
+                    for &(vc, cc) in &map[c].terms {
+                        m[va * nvar + vc] += ca * cc * mv;
+                    }
+                    bvec[va] -= ca * mv * map[c].c;
+                }
+            }
+            for &(va, ca) in &map[a].terms {
+                bvec[va] += ca * bloc[a];
+            }
+        }
+        let mut push_row = |g: &[f64], rhs: f64| {
+            let mut row = vec![0.0; nvar];
+            let mut r = rhs;
+            for a in 0..nl {
+                if g[a] == 0.0 {
+                    continue;
+                }
+                for &(va, ca) in &map[a].terms {
+                    row[va] += g[a] * ca;
+                }
+                r -= g[a] * map[a].c;
+            }
+            rows.push((row, r));
+        };
+        for q in 0..2 * nq {
+            push_row(&drow[q], drhs[q]);
+        }
+        if weak_symmetry {
+            push_row(&srow, 0.0);
+        }
+        locals.push(map);
+    }
+    for &z in &zero_vars {
+        let mut row = vec![0.0; nvar];
+        row[z] = 1.0;
+        rows.push((row, 0.0));
+    }
+    let (x, active, settled, defect) = solve_qp(nvar, &m, &bvec, &rows, &bounded);
+    if std::env::var_os("FOSLS_PATCH_DEBUG").is_some() && defect > PATCH_DEFECT_RELATIVE {
+        let kinds: Vec<String> = edge_ids
+            .iter()
+            .map(|&e| format!("{e}:{:?}", condition[e as usize]))
+            .collect();
+        eprintln!(
+            "patch {vertex}: defect {defect:.2e} nvar {nvar} rows {} bounded {} active {active} settled {settled} edges {kinds:?}",
+            rows.len(),
+            bounded.len()
+        );
+    }
+    let out_cells = cells
+        .iter()
+        .zip(&locals)
+        .map(|(&(t, _), map)| {
+            let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            for r in 0..2 {
+                for i in 0..nloc {
+                    let lin = &map[r * nloc + i];
+                    c[r][i] = lin.c + lin.terms.iter().map(|&(v, cf)| cf * x[v]).sum::<f64>();
+                }
+            }
+            (t, c)
+        })
+        .collect();
+    PatchOut {
+        cells: out_cells,
+        unknowns: nvar,
+        active,
+        settled,
+        defect,
+    }
+}
+
+#[inline]
+fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+/// min ½xᵀMx − bᵀx s.t. Bx = d (rows), x_i ≤ 0 for i ∈ `bounded` (M: lower triangle used,
+/// dense row-major n × n). Returns x, the active count, whether the active set settled, and the
+/// relative defect max_k |B_k x − d_k| / max_k (Σ_j |B_kj x_j| + |d_k|).
+fn solve_qp(
+    n: usize,
+    m: &[f64],
+    b: &[f64],
+    rows: &[(Vec<f64>, f64)],
+    bounded: &[usize],
+) -> (Vec<f64>, usize, bool, f64) {
+    let mut active = vec![false; n];
+    let mut x = vec![0.0; n];
+    let mut settled = false;
+    for _ in 0..PATCH_ACTIVE_SET_ITERATIONS {
+        let free: Vec<usize> = (0..n).filter(|&i| !active[i]).collect();
+        let (xf, lambda) = solve_equality(n, m, b, rows, &free);
+        x = xf;
+        // ν = b − Mx − Bᵀλ at the active variables.
+        let mut next = active.clone();
+        for &i in bounded {
+            let mut mx = 0.0;
+            for jj in 0..n {
+                let mv = if jj <= i {
+                    m[i * n + jj]
+                } else {
+                    m[jj * n + i]
+                };
+                mx += mv * x[jj];
+            }
+            let btl: f64 = rows.iter().zip(&lambda).map(|((r, _), l)| r[i] * l).sum();
+            let nu = if active[i] { b[i] - mx - btl } else { 0.0 };
+            let cdiag = m[i * n + i].abs().max(1e-300);
+            next[i] = nu + cdiag * x[i] > 0.0;
+        }
+        if next == active {
+            settled = true;
+            break;
+        }
+        active = next;
+    }
+    // Residuals relative to the largest row scale Σ_j |B_kj x_j| + |d_k| of the patch (a row
+    // whose own terms are round-off, e.g. a fixed tangential flux, is measured against that).
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    for (r, d) in rows {
+        let bx: f64 = r.iter().zip(&x).map(|(a, b)| a * b).sum();
+        worst = worst.max((bx - d).abs());
+        scale = scale.max(r.iter().zip(&x).map(|(a, b)| (a * b).abs()).sum::<f64>() + d.abs());
+    }
+    let defect = if scale > 0.0 { worst / scale } else { 0.0 };
+    (x, active.iter().filter(|&&a| a).count(), settled, defect)
+}
+
+/// The equality-constrained minimiser over the `free` variables (others 0) and the multipliers
+/// of the original rows.
+fn solve_equality(
+    n: usize,
+    m: &[f64],
+    b: &[f64],
+    rows: &[(Vec<f64>, f64)],
+    free: &[usize],
+) -> (Vec<f64>, Vec<f64>) {
+    let nf = free.len();
+    let mut x = vec![0.0; n];
+    if nf == 0 {
+        return (x, vec![0.0; rows.len()]);
+    }
+    // Modified Gram–Schmidt on the rows restricted to `free`, twice per row; q_j = Σ T_jk B_k.
+    let nr = rows.len();
+    let mut q: Vec<Vec<f64>> = Vec::new();
+    let mut tq: Vec<Vec<f64>> = Vec::new();
+    let mut dq: Vec<f64> = Vec::new();
+    for (kr, (row, _)) in rows.iter().enumerate() {
+        let mut v: Vec<f64> = free.iter().map(|&i| row[i]).collect();
+        let norm0 = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        if norm0 == 0.0 {
+            continue;
+        }
+        let mut c = vec![0.0; nr];
+        c[kr] = 1.0;
+        for _ in 0..2 {
+            for (qj, tj) in q.iter().zip(&tq) {
+                let a: f64 = qj.iter().zip(&v).map(|(p, w)| p * w).sum();
+                for (vi, qi) in v.iter_mut().zip(qj) {
+                    *vi -= a * qi;
+                }
+                for (ci, ti) in c.iter_mut().zip(tj) {
+                    *ci -= a * ti;
+                }
+            }
+        }
+        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        if norm <= PATCH_DEPENDENT_ROW * norm0 {
+            continue;
+        }
+        let s = 1.0 / norm;
+        v.iter_mut().for_each(|a| *a *= s);
+        c.iter_mut().for_each(|a| *a *= s);
+        dq.push(c.iter().zip(rows).map(|(ci, (_, dk))| ci * dk).sum());
+        q.push(v);
+        tq.push(c);
+    }
+    let nqr = q.len();
+    let mf = Mat::<f64>::from_fn(nf, nf, |i, j| {
+        let (a, c) = (free[i], free[j]);
+        if c <= a { m[a * n + c] } else { m[c * n + a] }
+    });
+    let Ok(llt) = mf.llt(Side::Lower) else {
+        if std::env::var_os("FOSLS_PATCH_DEBUG").is_some() {
+            eprintln!("M not SPD ({nf} free)");
+        }
+        return (x, vec![0.0; rows.len()]);
+    };
+    let bf = Mat::<f64>::from_fn(nf, 1, |i, _| b[free[i]]);
+    let mb = llt.solve(&bf);
+    let mut xf: Vec<f64> = (0..nf).map(|i| mb[(i, 0)]).collect();
+    let mut lambda_orig = vec![0.0; nr];
+    if nqr > 0 {
+        let qt = Mat::<f64>::from_fn(nf, nqr, |i, j| q[j][i]);
+        let y = llt.solve(&qt); // M⁻¹Qᵀ
+        let s = Mat::<f64>::from_fn(nqr, nqr, |i, j| {
+            (0..nf).map(|kk| q[i][kk] * y[(kk, j)]).sum()
+        });
+        let rhs = Mat::<f64>::from_fn(nqr, 1, |i, _| {
+            (0..nf).map(|kk| q[i][kk] * xf[kk]).sum::<f64>() - dq[i]
+        });
+        let lam = match s.llt(Side::Lower) {
+            Ok(sl) => sl.solve(&rhs),
+            Err(_) => {
+                if std::env::var_os("FOSLS_PATCH_DEBUG").is_some() {
+                    eprintln!("S not SPD ({nqr} rows)");
+                }
+                Mat::<f64>::zeros(nqr, 1)
+            }
+        };
+        for (kk, xv) in xf.iter_mut().enumerate() {
+            *xv -= (0..nqr).map(|j| y[(kk, j)] * lam[(j, 0)]).sum::<f64>();
+        }
+        for (j, tj) in tq.iter().enumerate() {
+            for (lo, t) in lambda_orig.iter_mut().zip(tj) {
+                *lo += t * lam[(j, 0)];
+            }
+        }
+    }
+    for (i, &fi) in free.iter().enumerate() {
+        x[fi] = xf[i];
+    }
+    (x, lambda_orig)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn projection_onto_polynomials_reproduces_them() {
+        // Π_1 of a linear function is itself; Π_1 of s² is s − 1/6 (hand: the L² projection).
+        let p = project_points(1, &[0.0, 1.0], |s| 3.0 - 2.0 * s);
+        assert!((p[0] - 3.0).abs() < 1e-14 && (p[1] - 1.0).abs() < 1e-14);
+        let q = project_points(1, &[0.0, 1.0], |s| s * s);
+        assert!((q[0] + 1.0 / 6.0).abs() < 1e-14 && (q[1] - 5.0 / 6.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn qp_with_a_bound_and_an_equality() {
+        // min ½(x₀² + x₁²) − (x₀ + x₁) s.t. x₀ − x₁ = 0.5, x₀ ≤ 0: x = (0, −0.5) by hand.
+        let m = vec![1.0, 0.0, 0.0, 1.0];
+        let b = vec![1.0, 1.0];
+        let rows = vec![(vec![1.0, -1.0], 0.5)];
+        let (x, active, settled, defect) = solve_qp(2, &m, &b, &rows, &[0]);
+        assert!(settled && active == 1 && defect < 1e-14);
+        assert!(x[0].abs() < 1e-14 && (x[1] + 0.5).abs() < 1e-14, "{x:?}");
+        // Without the bound: x₀ = 1.25, x₁ = 0.75.
+        let (x, ..) = solve_qp(2, &m, &b, &rows, &[]);
+        assert!((x[0] - 1.25).abs() < 1e-14 && (x[1] - 0.75).abs() < 1e-14);
+    }
+
+    #[test]
+    fn dependent_rows_are_dropped_and_inconsistent_ones_reported() {
+        let m = vec![1.0, 0.0, 0.0, 1.0];
+        let b = vec![0.0, 0.0];
+        let rows = vec![(vec![1.0, 1.0], 1.0), (vec![2.0, 2.0], 2.0)];
+        let (x, _, _, defect) = solve_qp(2, &m, &b, &rows, &[]);
+        assert!((x[0] - 0.5).abs() < 1e-14 && defect < 1e-14);
+        let bad = vec![(vec![1.0, 1.0], 1.0), (vec![2.0, 2.0], 3.0)];
+        let (_, _, _, defect) = solve_qp(2, &m, &b, &bad, &[]);
+        assert!(defect > 0.1, "{defect}");
+    }
+}
