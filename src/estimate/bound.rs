@@ -248,10 +248,7 @@ pub fn bound(
             cells.iter().fold(0.0f64, |m, c| m.max(c.moment))
         ));
     }
-    let curved = mesh
-        .shape
-        .iter()
-        .any(|s| *s == crate::geometry::Shape::Curved);
+    let curved = mesh.shape.contains(&crate::geometry::Shape::Curved);
     if curved && osc > 0.0 {
         failed.push(
             "curved cells: Payne–Weinberger's h_T/π is proven for convex cells; the \

@@ -344,8 +344,7 @@ fn solve_patch(
                             (cn, ct)
                         };
                         for (r, row) in vals.iter_mut().enumerate() {
-                            for j in 0..ne {
-                                let bij = bern[slot][j];
+                            for (j, &bij) in bern[slot].iter().enumerate().take(ne) {
                                 if bij != 0.0 {
                                     row[slot].terms.push((base + 2 * j, sgn * bij * c0[r]));
                                     row[slot].terms.push((base + 2 * j + 1, sgn * bij * c1[r]));
