@@ -543,10 +543,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         Source::Auto => false,
         _ => false,
     };
-    let patch_order = match opts.degree.unwrap_or(data.mesh.degree) {
-        0 | 1 => RtOrder::Rt1,
-        _ => reconstruct::patch::order_for_degree(2),
-    };
+    let patch_order = reconstruct::patch::order_for_degree(opts.degree.unwrap_or(data.mesh.degree));
     let mut patch_info = None;
     let reconstruction = match &reconstruct_reason {
         None => None,
@@ -625,14 +622,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     progress.stage("evaluating the functional");
     let mut est: Estimate = estimate::run(&ctx, u, sigma);
     if let Some(p) = &projection {
-        est.bound = estimate::bound::bound(
-            &ctx,
-            u,
-            sigma,
-            &est.functional,
-            &est.admissibility,
-            Some(p.distance),
-        );
+        est.bound.add_projection(p.distance);
     }
     // The contact zone is the file's displacement's (the projection lifts the zone by up to
     // ~1e-5 and would reopen it, issue 12; the traction is the stress used's).

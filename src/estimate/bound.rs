@@ -63,6 +63,33 @@ pub struct Bound {
     pub failed_hypotheses: Vec<String>,
     /// Per cell: η_PS,T² + (osc_T + as_T)²/c_min (units of |||·|||²).
     pub cells: Vec<f64>,
+    /// ½|||v|||², the reference of `relative`.
+    #[serde(skip)]
+    pub energy: f64,
+}
+
+impl Bound {
+    /// The bound for the file's u_h when the pair used its projection v onto K_u:
+    /// |||u − u_h||| ≤ |||u − v||| + ‖v − u_h‖_E (the other terms do not change).
+    pub fn add_projection(&mut self, distance: f64) {
+        let Some(t) = self.terms.as_mut() else {
+            return;
+        };
+        t.projection = distance;
+        if let Some(e) = self.energy_error.as_mut() {
+            *e = energy_error(t);
+            if self.energy > 0.0 {
+                self.relative = Some(*e / self.energy.sqrt());
+            }
+        }
+    }
+}
+
+/// (½)^½ (½(R + √(R² + 4c)) + ‖v − u_h‖_E), R = η_PS + η_osc + η_as (module doc).
+fn energy_error(t: &BoundTerms) -> f64 {
+    let r = t.prager_synge + t.oscillation + t.asymmetry;
+    let w = 0.5 * (r + (r * r + 4.0 * t.complementarity.max(0.0)).sqrt()) + t.projection;
+    0.5f64.sqrt() * w
 }
 
 /// Per-cell results of the pass over the cells.
@@ -86,7 +113,6 @@ pub fn bound(
     sigma: StressField,
     f: &Terms,
     adm: &Admissibility,
-    projection_distance: Option<f64>,
 ) -> Bound {
     let mesh = ctx.mesh;
     let el = ctx.elastic;
@@ -144,27 +170,20 @@ pub fn bound(
             for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
                 let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
                 let w = wq * sp.jac.det;
-                let mut gu = [[0.0; 2]; 2];
-                let mut sn = [0.0; 4];
-                let mut dn = [0.0; 2];
-                for (k, &p) in nodes.iter().enumerate() {
-                    let g = sp.grad[k];
-                    let uu = v[p as usize];
-                    for a in 0..2 {
-                        gu[a][0] += uu[a] * g[0];
-                        gu[a][1] += uu[a] * g[1];
-                    }
-                    if let StressField::Nodal(s) = sigma {
-                        let s = s[p as usize];
-                        for (m, sm) in sn.iter_mut().enumerate() {
-                            *sm += s[m] * sp.phi[k];
-                        }
-                        dn[0] += s[0] * g[0] + s[1] * g[1];
-                        dn[1] += s[2] * g[0] + s[3] * g[1];
-                    }
-                }
+                let gu = sp.gradient_at(nodes, v);
                 let (s, d) = match sigma {
-                    StressField::Nodal(_) => (sn, dn),
+                    StressField::Nodal(sv) => {
+                        let (mut sn, mut dn) = ([0.0; 4], [0.0; 2]);
+                        for (k, &p) in nodes.iter().enumerate() {
+                            let (sk, g) = (sv[p as usize], sp.grad[k]);
+                            for (m, sm) in sn.iter_mut().enumerate() {
+                                *sm += sk[m] * sp.phi[k];
+                            }
+                            dn[0] += sk[0] * g[0] + sk[1] * g[1];
+                            dn[1] += sk[2] * g[0] + sk[3] * g[1];
+                        }
+                        (sn, dn)
+                    }
                     StressField::Rt(rt) => rt.at(rt.first[t] as usize, &sp.jac, xi),
                 };
                 let sym = 0.5 * (gu[0][1] + gu[1][0]);
@@ -221,11 +240,15 @@ pub fn bound(
     let asym = (cells.iter().map(|c| c.asym * c.asym).sum::<f64>() / c_min).sqrt();
     let energy: f64 = cells.iter().map(|c| c.energy).sum();
     let korn_max = cells.iter().fold(0.0f64, |m, c| m.max(c.korn));
-    let comp = f.complementarity + f.friction;
-    let projection = projection_distance.unwrap_or(0.0);
-    let r = ps + osc + asym;
-    let w = 0.5 * (r + (r * r + 4.0 * comp.max(0.0)).sqrt()) + projection;
-    let energy_error = (0.5f64).sqrt() * w;
+    let terms = BoundTerms {
+        prager_synge: ps,
+        complementarity: f.complementarity + f.friction,
+        oscillation: osc,
+        asymmetry: asym,
+        projection: 0.0,
+        korn_max,
+    };
+    let energy_error = energy_error(&terms);
 
     if frictional {
         failed.push(
@@ -234,7 +257,7 @@ pub fn bound(
                 .to_string(),
         );
     }
-    failed.extend(failed_checks(adm, v, sigma.scale(mesh), frictional));
+    failed.extend(failed_checks(adm, v, sigma_scale, frictional));
     let unbalanced = cells
         .iter()
         .filter(|c| c.moment > BOUND_MOMENT_RELATIVE)
@@ -273,7 +296,7 @@ pub fn bound(
              (Costabel–Dauge 2015): asymmetry term {asym:.3e}, oscillation term {osc:.3e}"
         ));
     }
-    let guaranteed = computable && failed.is_empty() && w.is_finite();
+    let guaranteed = computable && failed.is_empty() && energy_error.is_finite();
     let statement = if !computable {
         "no bound: the stress is not equilibrated (the FOSLS η is an estimate, not a bound)"
             .to_string()
@@ -289,16 +312,10 @@ pub fn bound(
         energy_error: computable.then_some(energy_error),
         relative: (computable && energy > 0.0).then(|| energy_error / energy.sqrt()),
         statement,
-        terms: Some(BoundTerms {
-            prager_synge: ps,
-            complementarity: comp,
-            oscillation: osc,
-            asymmetry: asym,
-            projection,
-            korn_max,
-        }),
+        terms: Some(terms),
         failed_hypotheses: failed,
         cells: cells.iter().map(|c| c.local).collect(),
+        energy,
     }
 }
 
@@ -323,6 +340,26 @@ pub fn korn_constant(v: [[f64; 2]; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_projection_distance_is_added_by_the_triangle_inequality() {
+        // R = 3 + 1, c = 0: |||u − v||| ≤ 4; + 1 for the projection; energy_error = √½ × that.
+        let terms = BoundTerms {
+            prager_synge: 3.0,
+            asymmetry: 1.0,
+            ..Default::default()
+        };
+        let mut b = Bound {
+            energy_error: Some(energy_error(&terms)),
+            terms: Some(terms),
+            energy: 4.0,
+            ..Default::default()
+        };
+        assert!((b.energy_error.unwrap() - 4.0 * 0.5f64.sqrt()).abs() < 1e-15);
+        b.add_projection(1.0);
+        assert!((b.energy_error.unwrap() - 5.0 * 0.5f64.sqrt()).abs() < 1e-15);
+        assert!((b.relative.unwrap() - 2.5 * 0.5f64.sqrt()).abs() < 1e-15);
+    }
 
     #[test]
     fn korn_constant_of_the_equilateral_and_right_triangles() {

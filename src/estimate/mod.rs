@@ -229,7 +229,7 @@ pub fn run(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Estimate {
     let eta = (functional.total >= 0.0).then(|| functional.total.sqrt());
     let relative =
         (functional.total >= 0.0 && energy > 0.0).then(|| (functional.total / energy).sqrt());
-    let bound = bound::bound(ctx, u, sigma, &functional, &boundary.admissibility, None);
+    let bound = bound::bound(ctx, u, sigma, &functional, &boundary.admissibility);
     Estimate {
         norm: ctx.norm,
         functional,

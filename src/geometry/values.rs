@@ -507,6 +507,33 @@ pub struct SubPoint {
     pub grad: [[f64; 2]; MAX_NODES],
 }
 
+impl SubPoint {
+    /// Σ_i u[nodes[i]] φ_i: a nodal vector field of the parent cell (global values `u`).
+    #[inline]
+    pub fn value_at(&self, nodes: &[u32], u: &[[f64; 2]]) -> [f64; 2] {
+        let mut r = [0.0; 2];
+        for (i, &p) in nodes.iter().enumerate() {
+            r[0] += u[p as usize][0] * self.phi[i];
+            r[1] += u[p as usize][1] * self.phi[i];
+        }
+        r
+    }
+
+    /// ∇u = Σ_i u[nodes[i]] ⊗ ∇φ_i (row a: ∂u_a/∂x, ∂u_a/∂y).
+    #[inline]
+    pub fn gradient_at(&self, nodes: &[u32], u: &[[f64; 2]]) -> [[f64; 2]; 2] {
+        let mut r = [[0.0; 2]; 2];
+        for (i, &p) in nodes.iter().enumerate() {
+            let (v, g) = (u[p as usize], self.grad[i]);
+            for a in 0..2 {
+                r[a][0] += v[a] * g[0];
+                r[a][1] += v[a] * g[1];
+            }
+        }
+        r
+    }
+}
+
 /// Geometry at ξ_sub of sub-triangle `k` of the cell of `family` with nodes `x`; `shape` is
 /// the cell's ([`crate::mesh::Mesh::shape`]).
 #[inline]

@@ -110,13 +110,11 @@ fn project_points(k: usize, points: &[f64], g: impl Fn(f64) -> f64) -> [f64; 3] 
     out
 }
 
-/// The RT order of the patch reconstruction for displacement degree p: RT_p (ψ_a Cε(u_h) has
-/// degree p, so RT_p reproduces Cε(u_h) when it is the exact stress; design §5.10).
-pub fn order_for_degree(p: usize) -> RtOrder {
-    match p {
-        0 | 1 => RtOrder::Rt1,
-        _ => RtOrder::Rt1,
-    }
+/// The RT order of the patch reconstruction for displacement degree p. RT_p is the right one
+/// (ψ_a Cε(u_h) has degree p, so RT_p reproduces an exact stress; design §5.10); RT_2 is not
+/// available yet, so every degree gets RT_1 (k ≥ 1 keeps the rigid motions in the moments).
+pub fn order_for_degree(_p: usize) -> RtOrder {
+    RtOrder::Rt1
 }
 
 /// Reconstructs σ_h patch by patch (module doc). Triangle meshes only; λ < ∞.
@@ -414,15 +412,7 @@ fn solve_patch(
             let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
             let jac = sp.jac;
             let w = wq * jac.det;
-            let mut gu = [[0.0; 2]; 2];
-            for (kk, &pn) in nodes.iter().enumerate() {
-                let g = sp.grad[kk];
-                let uu = u[pn as usize];
-                for a in 0..2 {
-                    gu[a][0] += uu[a] * g[0];
-                    gu[a][1] += uu[a] * g[1];
-                }
-            }
+            let gu = sp.gradient_at(nodes, u);
             let sym = 0.5 * (gu[0][1] + gu[1][0]);
             let eps = [gu[0][0], sym, sym, gu[1][1]];
             let sig = el.stress(eps);
@@ -501,11 +491,7 @@ fn solve_patch(
                 if !gap.is_finite() {
                     continue;
                 }
-                let mut uu = [0.0; 2];
-                for (kk, &pn) in nodes.iter().enumerate() {
-                    uu[0] += u[pn as usize][0] * sp.phi[kk];
-                    uu[1] += u[pn as usize][1] * sp.phi[kk];
-                }
+                let uu = sp.value_at(nodes, u);
                 let un = cn[0] * uu[0] + cn[1] * uu[1];
                 let (v, _) = rt::piola(order, &sp.jac, xs);
                 for r in 0..2 {
@@ -566,17 +552,6 @@ fn solve_patch(
         rows.push((row, 0.0));
     }
     let (x, active, settled, defect) = solve_qp(nvar, &m, &bvec, &rows, &bounded);
-    if std::env::var_os("FOSLS_PATCH_DEBUG").is_some() && defect > PATCH_DEFECT_RELATIVE {
-        let kinds: Vec<String> = edge_ids
-            .iter()
-            .map(|&e| format!("{e}:{:?}", condition[e as usize]))
-            .collect();
-        eprintln!(
-            "patch {vertex}: defect {defect:.2e} nvar {nvar} rows {} bounded {} active {active} settled {settled} edges {kinds:?}",
-            rows.len(),
-            bounded.len()
-        );
-    }
     let out_cells = cells
         .iter()
         .zip(&locals)
@@ -712,9 +687,6 @@ fn solve_equality(
         if c <= a { m[a * n + c] } else { m[c * n + a] }
     });
     let Ok(llt) = mf.llt(Side::Lower) else {
-        if std::env::var_os("FOSLS_PATCH_DEBUG").is_some() {
-            eprintln!("M not SPD ({nf} free)");
-        }
         return (x, vec![0.0; rows.len()]);
     };
     let bf = Mat::<f64>::from_fn(nf, 1, |i, _| b[free[i]]);
@@ -732,12 +704,7 @@ fn solve_equality(
         });
         let lam = match s.llt(Side::Lower) {
             Ok(sl) => sl.solve(&rhs),
-            Err(_) => {
-                if std::env::var_os("FOSLS_PATCH_DEBUG").is_some() {
-                    eprintln!("S not SPD ({nqr} rows)");
-                }
-                Mat::<f64>::zeros(nqr, 1)
-            }
+            Err(_) => Mat::<f64>::zeros(nqr, 1),
         };
         for (kk, xv) in xf.iter_mut().enumerate() {
             *xv -= (0..nqr).map(|j| y[(kk, j)] * lam[(j, 0)]).sum::<f64>();

@@ -322,6 +322,7 @@ pub(crate) mod fixture {
                 terms: None,
                 failed_hypotheses: vec!["u_h penetrates the obstacle".into()],
                 cells: vec![],
+                energy: 361.0,
             },
             cells,
         }
