@@ -508,7 +508,7 @@ pub struct SubPoint {
 }
 
 impl SubPoint {
-    /// Σ_i u[nodes[i]] φ_i: a nodal vector field of the parent cell (global values `u`).
+    /// Σ_i `u[nodes[i]]` φ_i: a nodal vector field of the parent cell (global values `u`).
     #[inline]
     pub fn value_at(&self, nodes: &[u32], u: &[[f64; 2]]) -> [f64; 2] {
         let mut r = [0.0; 2];
@@ -519,7 +519,7 @@ impl SubPoint {
         r
     }
 
-    /// ∇u = Σ_i u[nodes[i]] ⊗ ∇φ_i (row a: ∂u_a/∂x, ∂u_a/∂y).
+    /// ∇u = Σ_i `u[nodes[i]]` ⊗ ∇φ_i (row a: ∂u_a/∂x, ∂u_a/∂y).
     #[inline]
     pub fn gradient_at(&self, nodes: &[u32], u: &[[f64; 2]]) -> [[f64; 2]; 2] {
         let mut r = [[0.0; 2]; 2];
