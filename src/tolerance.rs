@@ -158,3 +158,20 @@ pub const PATCH_DEPENDENT_ROW: f64 = 1e-10;
 /// fraction of their scale (∫ h|div τ| + h|f|, ∫|τ_xy| + |τ_yx|): the patch reconstruction
 /// meets them to ~1e-13, a non-equilibrated stress misses them by O(1).
 pub const BOUND_MOMENT_RELATIVE: f64 = 1e-8;
+
+/// Singular values of the Alfeld divergence matrix (`reconstruct::symmetric`) below this
+/// fraction of the largest are its kernel: the matrix has exactly one zero singular value (the
+/// mean) up to round-off ~1e-15, and its smallest non-zero one is above 1e-3 of the largest on
+/// cells with angles down to 1° (tested), so the cut separates the two by orders of magnitude.
+pub const SYMMETRIC_RANK: f64 = 1e-10;
+
+/// After the symmetric correction, ‖as τ*‖_T counts as zero below this fraction of
+/// max(‖as τ‖_T, stress scale × |T|^½): the exact elimination leaves ~1e-14.
+pub const SYMMETRIC_RESIDUAL: f64 = 1e-9;
+
+/// Conjugate-gradient cap and relative residual of the balancing flows between patches
+/// (`reconstruct::flow`): the flows must cancel the patch defects to round-off, or the patch
+/// problems stay infeasible; the graph Laplacian of a mesh of N vertices needs O(N^½) steps per
+/// decade, so 10⁴ steps cover meshes far beyond 10⁶ vertices at 1e-14.
+pub const FLOW_ITERATIONS: usize = 10_000;
+pub const FLOW_RELATIVE: f64 = 1e-14;

@@ -27,10 +27,12 @@ use serde::Serialize;
 
 use super::{Admissibility, Terms, failed_checks};
 use crate::field::StressField;
+use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::triangle_rule_cached;
-use crate::tolerance::{ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE};
+use crate::reconstruct::symmetric;
+use crate::tolerance::{ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE, SYMMETRIC_RESIDUAL};
 
 /// The terms of the bound (units of |||·|||, i.e. √(2 × energy); `complementarity` in energy).
 #[derive(Clone, Debug, Default, Serialize, serde::Deserialize, PartialEq)]
@@ -47,6 +49,11 @@ pub struct BoundTerms {
     pub projection: f64,
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
+    /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
+    /// (`reconstruct::symmetric`, design §5.11); their asymmetry term is 0 and their η_PS is
+    /// that of the corrected stress.
+    #[serde(default)]
+    pub symmetrised_cells: usize,
 }
 
 /// The bound and its status.
@@ -104,6 +111,7 @@ struct Cell {
     moment: f64,
     mean_as: f64,
     korn: f64,
+    symmetrised: bool,
 }
 
 /// The bound for displacement `v` and stress `sigma` (docs/design.md §6).
@@ -231,7 +239,33 @@ pub fn bound(
             } else {
                 0.0
             };
+            // Mean-free asymmetry on a straight cell with an RT stress: remove it exactly
+            // (design §5.11), which drops the Korn-constant term of this cell.
+            if let StressField::Rt(rt) = sigma
+                && sh == Shape::Affine
+                && !fam.is_quad()
+                && c.mean_as <= BOUND_MOMENT_RELATIVE
+            {
+                let first = rt.first[t] as usize;
+                let m = rt.order.k() + 2;
+                let fix = symmetric::correct(verts, m, &el, |xi| {
+                    let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+                    let (s, _) = rt.at(first, &sp.jac, xi);
+                    let gu = sp.gradient_at(nodes, v);
+                    let sym = 0.5 * (gu[0][1] + gu[1][0]);
+                    (s, el.stress([gu[0][0], sym, sym, gu[1][1]]))
+                });
+                let floor = fix.asym_before.max(sigma_scale * area.sqrt());
+                if fix.rank + 1 == fix.rows && fix.asym_after <= SYMMETRIC_RESIDUAL * floor {
+                    c.ps2 = fix.ps2;
+                    c.asym = 0.0;
+                    c.symmetrised = true;
+                }
+            }
             c.local = c.ps2 + (c.osc + c.asym).powi(2) / c_min;
+            if std::env::var("FOSLS_DBG").is_ok() && !c.symmetrised {
+                eprintln!("cell {t} shape {sh:?} mean_as {:.3e} asym {:.3e}", c.mean_as, c.asym);
+            }
             c
         })
         .collect();
@@ -247,6 +281,7 @@ pub fn bound(
         asymmetry: asym,
         projection: 0.0,
         korn_max,
+        symmetrised_cells: cells.iter().filter(|c| c.symmetrised).count(),
     };
     let energy_error = energy_error(&terms);
 

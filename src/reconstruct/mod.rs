@@ -4,11 +4,13 @@
 //! with bound constraints on the normal traces at the contact points ([`solve`]).
 
 pub mod displacement;
+pub mod flow;
 pub mod nodal;
 pub mod patch;
 pub mod projection;
 pub mod stress;
 pub mod submesh;
+pub mod symmetric;
 
 /// The QP solver, a leaf of its own ([`crate::solve`]).
 pub use crate::solve;

@@ -35,6 +35,7 @@ use faer::prelude::Solve;
 use faer::{Mat, Side};
 use rayon::prelude::*;
 
+use super::flow;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
 use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
@@ -63,6 +64,9 @@ pub struct PatchInfo {
     pub max_defect: f64,
     /// Whether ∫_T as σ_h = 0 was imposed (P2 displacements).
     pub weak_symmetry: bool,
+    /// Whether the patch loads were rebalanced by flows between patches (flow.rs): the file's
+    /// displacement was not the Galerkin solution of this discrete problem.
+    pub balanced: bool,
 }
 
 /// The result.
@@ -167,18 +171,88 @@ pub fn reconstruct(
     }
     let weak_symmetry = mesh.degree >= 2;
     let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
-    let outs: Vec<PatchOut> = vertices
-        .par_iter()
-        .with_min_len(64)
-        .map(|&v| {
-            let cells = &members[count[v] as usize..count[v + 1] as usize];
-            solve_patch(ctx, u, order, &condition, v as u32, cells, weak_symmetry)
-        })
-        .collect();
+    // Rotation moments about one point for all patches (the flows compare them).
+    let origin = {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &mesh.points {
+            for c in 0..2 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])]
+    };
+    let no_extra: Vec<Vec<Extra>> = Vec::new();
+    let solve_all = |extra: &Vec<Vec<Extra>>| -> Vec<PatchOut> {
+        vertices
+            .par_iter()
+            .with_min_len(64)
+            .map(|&v| {
+                let cells = &members[count[v] as usize..count[v + 1] as usize];
+                let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
+                let setup = PatchSetup {
+                    order,
+                    condition: &condition,
+                    weak_symmetry,
+                    origin,
+                };
+                solve_patch(ctx, u, &setup, v as u32, cells, ex)
+            })
+            .collect()
+    };
+    let mut outs = solve_all(&no_extra);
+    // Patches whose load has non-zero rigid-motion moments (a displacement that is not the
+    // Galerkin solution of this discrete problem): move the defects to the sinks (flow.rs).
+    let unbalanced = outs
+        .iter()
+        .any(|o| !o.sink && o.defect > PATCH_DEFECT_RELATIVE);
+    let mut balanced = false;
+    if unbalanced {
+        let mut d = vec![[0.0; 3]; npts];
+        let mut sink = vec![false; npts];
+        for (o, &v) in outs.iter().zip(&vertices) {
+            d[v] = o.balance;
+            if !weak_symmetry {
+                d[v][2] = 0.0;
+            }
+            sink[v] = o.sink;
+        }
+        let p = flow::potentials(&topo.edges, &sink, &d);
+        let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
+        for (e, &[a, b]) in topo.edges.iter().enumerate() {
+            let y = [
+                p[a as usize][0] - p[b as usize][0],
+                p[a as usize][1] - p[b as usize][1],
+                p[a as usize][2] - p[b as usize][2],
+            ];
+            if y == [0.0; 3] {
+                continue;
+            }
+            let cells: Vec<u32> = topo.edge_cells[e]
+                .iter()
+                .copied()
+                .filter(|&c| c != NONE)
+                .collect();
+            let Some(h) = edge_load(ctx, &cells, y, origin) else {
+                continue;
+            };
+            for &(t, c, centre) in &h {
+                extra[a as usize].push(Extra {
+                    cell: t,
+                    c: [-c[0], -c[1], -c[2]],
+                    centre,
+                });
+                extra[b as usize].push(Extra { cell: t, c, centre });
+            }
+        }
+        outs = solve_all(&extra);
+        balanced = true;
+    }
     let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
     let mut info = PatchInfo {
         patches: outs.len(),
         weak_symmetry,
+        balanced,
         ..Default::default()
     };
     for o in outs {
@@ -214,18 +288,88 @@ struct PatchOut {
     active: usize,
     settled: bool,
     defect: f64,
+    /// Moments of the patch load against e_x, e_y and (x − x₀)^⊥ (flow.rs's d_a).
+    balance: [f64; 3],
+    /// The patch has free fluxes (Dirichlet or contact edges): it takes any load.
+    sink: bool,
+}
+
+/// What every patch shares.
+struct PatchSetup<'a> {
+    order: RtOrder,
+    condition: &'a [Option<Condition>],
+    weak_symmetry: bool,
+    /// x₀ of the rotation moments.
+    origin: [f64; 2],
+}
+
+/// An added body load on one cell of the patch: c₀e_x + c₁e_y + c₂(x − centre)^⊥ (flow.rs).
+#[derive(Clone, Copy, Debug)]
+struct Extra {
+    cell: u32,
+    c: [f64; 3],
+    centre: [f64; 2],
+}
+
+/// The load h_E on the cells of an edge with rigid-motion moments y = (∫h·e_x, ∫h·e_y,
+/// ∫h·(x − x₀)^⊥): h = c₀e_x + c₁e_y + c₂(x − x̄)^⊥ with x̄ the centroid of the cells, so
+/// c₀ = y₀/|ω|, c₁ = y₁/|ω|, c₂ = (y₂ + |ω|(ȳ − y₀')c₀ − |ω|(x̄ − x₀')c₁)/∫|x − x̄|² (x₀ =
+/// (x₀', y₀')). Straight-cell quadrature of the area and second moment (the patch rows use the
+/// same points, so the moments the patches see are these up to round-off).
+fn edge_load(
+    ctx: &Context,
+    cells: &[u32],
+    y: [f64; 3],
+    origin: [f64; 2],
+) -> Option<Vec<(u32, [f64; 3], [f64; 2])>> {
+    let mesh = ctx.mesh;
+    let rule = triangle_rule_cached(4);
+    let (mut area, mut first) = (0.0, [0.0; 2]);
+    let mut pts: Vec<([f64; 2], f64)> = Vec::new();
+    for &t in cells {
+        let t = t as usize;
+        let fam = mesh.family[t];
+        let x = mesh.coords(t);
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, xi);
+            let w = wq * sp.jac.det;
+            area += w;
+            first[0] += w * sp.x[0];
+            first[1] += w * sp.x[1];
+            pts.push((sp.x, w));
+        }
+    }
+    if area <= 0.0 {
+        return None;
+    }
+    let centre = [first[0] / area, first[1] / area];
+    let second: f64 = pts
+        .iter()
+        .map(|(p, w)| w * ((p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)))
+        .sum();
+    if second <= 0.0 {
+        return None;
+    }
+    let c0 = y[0] / area;
+    let c1 = y[1] / area;
+    let c2 = (y[2] + area * (centre[1] - origin[1]) * c0 - area * (centre[0] - origin[0]) * c1)
+        / second;
+    Some(cells.iter().map(|&t| (t, [c0, c1, c2], centre)).collect())
 }
 
 /// One patch: unknowns, local maps, quadrature, QP (module doc).
 fn solve_patch(
     ctx: &Context,
     u: &[[f64; 2]],
-    order: RtOrder,
-    condition: &[Option<Condition>],
+    setup: &PatchSetup,
     vertex: u32,
     cells: &[(u32, u8)],
-    weak_symmetry: bool,
+    extra: &[Extra],
 ) -> PatchOut {
+    let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
+    let x0 = setup.origin;
+    let mut balance = [0.0; 3];
+    let mut sink = false;
     let mesh = ctx.mesh;
     let topo = ctx.topo;
     let el = ctx.elastic;
@@ -274,6 +418,7 @@ fn solve_patch(
                 }
                 (false, _) => {}
                 (true, Condition::Dirichlet(_)) => {
+                    sink = true;
                     for row in vals.iter_mut() {
                         for v in row.iter_mut().take(ne) {
                             v.terms.push((nvar, 1.0));
@@ -291,6 +436,22 @@ fn solve_patch(
                         let a_first = mesh.nodes(t)[l] == vertex;
                         let local_points: Vec<f64> =
                             order.edge_points().iter().map(|&s| owner_s(s)).collect();
+                        // The traction's moments leave the patch load (flow.rs's d_a).
+                        let lr = line_rule_cached(EDGE_DEGREE);
+                        for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
+                            let (sp, _, len, _) =
+                                sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, s);
+                            let psi = if a_first { 1.0 - s } else { s };
+                            let tv = [
+                                traction[0].eval(sp.x[0], sp.x[1], 0.0),
+                                traction[1].eval(sp.x[0], sp.x[1], 0.0),
+                            ];
+                            let rho = [-(sp.x[1] - x0[1]), sp.x[0] - x0[0]];
+                            let g = wq * psi * len;
+                            balance[0] -= g * tv[0];
+                            balance[1] -= g * tv[1];
+                            balance[2] -= g * (tv[0] * rho[0] + tv[1] * rho[1]);
+                        }
                         for (r, row) in vals.iter_mut().enumerate() {
                             let p = project_points(order.k(), &local_points, |s| {
                                 let (sp, _, len, _) =
@@ -305,6 +466,7 @@ fn solve_patch(
                     }
                 }
                 (true, Condition::Contact(b)) => {
+                    sink = true;
                     let BoundaryKind::Contact(spec) = &scene.boundaries[b].kind else {
                         unreachable!("a contact edge has a contact spec")
                     };
@@ -427,10 +589,18 @@ fn solve_patch(
                     fe[1].eval(sp.x[0], sp.x[1], 0.0),
                 ],
             };
-            let target = [
+            let mut target = [
                 -psi * f[0] + sig[0] * gpsi[0] + sig[1] * gpsi[1],
                 -psi * f[1] + sig[2] * gpsi[0] + sig[3] * gpsi[1],
             ];
+            for ex in extra.iter().filter(|ex| ex.cell as usize == t) {
+                target[0] += ex.c[0] - ex.c[2] * (sp.x[1] - ex.centre[1]);
+                target[1] += ex.c[1] + ex.c[2] * (sp.x[0] - ex.centre[0]);
+            }
+            let rho = [-(sp.x[1] - x0[1]), sp.x[0] - x0[0]];
+            balance[0] += w * target[0];
+            balance[1] += w * target[1];
+            balance[2] += w * (target[0] * rho[0] + target[1] * rho[1]);
             let qv = [
                 1.0,
                 xi[0],
@@ -572,6 +742,8 @@ fn solve_patch(
         active,
         settled,
         defect,
+        balance,
+        sink,
     }
 }
 
