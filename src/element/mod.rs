@@ -5,4 +5,4 @@
 
 pub mod rt;
 
-pub use rt::{RT0_DOFS, RT1_DOFS, RtOrder};
+pub use rt::{RT0_DOFS, RT1_DOFS, RT2_DOFS, RtOrder};

@@ -1,10 +1,11 @@
-//! Raviart–Thomas elements RT_0 and RT_1 on the reference triangle, with the contravariant
+//! Raviart–Thomas elements RT_0, RT_1 and RT_2 on the reference triangle, with the contravariant
 //! Piola map to straight and curved (isoparametric P2) cells (docs/design.md §4: the stress space;
 //! §5: the contact sign constraint as a bound on single unknowns).
 //!
 //! **Naming.** RT_k is the space RT_k = P_k² + ξ P̃_k (P̃_k: homogeneous polynomials of degree
-//! k), so RT_0 is the lowest order (3 functions, normal trace constant on each edge) and RT_1
-//! the next (8 functions, normal trace linear on each edge: the talk's choice). scikit-fem
+//! k), so RT_0 is the lowest order (3 functions, normal trace constant on each edge), RT_1
+//! the next (8 functions, normal trace linear on each edge: the talk's choice) and RT_2 the
+//! one after (15 functions, normal trace quadratic on each edge). scikit-fem
 //! counts from one: its lowest order is `ElementTriRT1` (`ElementTriRT0` is an alias of it).
 //!
 //! **Reference triangle** T̂ = conv{(0,0), (1,0), (0,1)}. Local edge e runs from vertex e to
@@ -16,21 +17,26 @@
 //! edge is a sign bound on single unknowns):
 //!
 //! - edge DOF of edge e at s: q_e(s) = φ̂(ξ(s)) · ν̂_e, the flux per unit of s;
-//!   RT_0 at s = ½, RT_1 at s = 0 and s = 1 (the edge's end points);
-//! - RT_1 only, two interior DOFs: the moments ∫_T̂ φ̂_x dξ and ∫_T̂ φ̂_y dξ.
+//!   RT_0 at s = ½, RT_1 at s = 0 and s = 1 (the edge's end points), RT_2 at s = 0, ½, 1;
+//! - interior DOFs, the moments ∫_T̂ φ̂_c q dξ of the components c ∈ {x, y} against
+//!   q ∈ P_{k−1}(T̂): none for RT_0; RT_1: q = 1 (two moments); RT_2: q ∈ {1, ξ, η} (six).
 //!
-//! **DOF order**: edge 0 (s ascending), edge 1, edge 2, then the interior moments (x, then y):
+//! **DOF order**: edge 0 (s ascending), edge 1, edge 2, then the interior moments, test function
+//! q major and component (x, then y) minor, so that RT_1's interior DOFs are the first two of
+//! RT_2's (interior DOF i is ∫φ̂_c q_m with m = i / 2, c = i mod 2, q_0, q_1, q_2 = 1, ξ, η):
 //!
 //! | order | edge e, slot i | interior |
 //! |---|---|---|
 //! | RT_0 | e (s = ½) | — |
 //! | RT_1 | 2e + i (s = i) | 6 (∫φ̂_x), 7 (∫φ̂_y) |
+//! | RT_2 | 3e + i (s = i/2) | 9 (∫φ̂_x), 10 (∫φ̂_y), 11 (∫φ̂_x ξ), 12 (∫φ̂_y ξ), 13 (∫φ̂_x η), 14 (∫φ̂_y η) |
 //!
 //! See [`RtOrder::edge_dof`] and [`RtOrder::interior_dof`].
 //!
 //! **Basis.** The local basis is the nodal (dual) basis of these DOFs, built once, at first use,
 //! by inverting the DOF matrix D_ij = DOF_i(m_j) of the monomial basis m_j of RT_k (RT_0:
-//! (1,0), (0,1), (ξ,η); RT_1: (1,0), (0,1), (ξ,0), (0,ξ), (η,0), (0,η), ξ(ξ,η), η(ξ,η)); D is
+//! (1,0), (0,1), (ξ,η); RT_1: (1,0), (0,1), (ξ,0), (0,ξ), (η,0), (0,η), ξ(ξ,η), η(ξ,η); RT_2:
+//! the twelve (m,0), (0,m) for m ∈ {1, ξ, η, ξ², ξη, η²}, then ξ²(ξ,η), ξη(ξ,η), η²(ξ,η)); D is
 //! evaluated exactly (point values, ∫_T̂ ξ^a η^b = a! b!/(a + b + 2)!). The result, in closed
 //! form: RT_0: (ξ, η − 1), (ξ, η), (ξ − 1, η) (the classical basis: unit total flux through one
 //! edge); RT_1: see the test `basis_in_closed_form`.
@@ -75,8 +81,10 @@ use crate::quadrature::triangle_rule_cached;
 pub const RT0_DOFS: usize = 3;
 /// Number of RT_1 functions (two per edge, two interior).
 pub const RT1_DOFS: usize = 8;
+/// Number of RT_2 functions (three per edge, six interior).
+pub const RT2_DOFS: usize = 15;
 /// Size of the fixed arrays returned here: the largest number of functions.
-pub const MAX_RT_DOFS: usize = RT1_DOFS;
+pub const MAX_RT_DOFS: usize = RT2_DOFS;
 
 /// Tangents t̂_e = dξ/ds of the reference edges 0, 1, 2 (edge e from vertex e to vertex e + 1).
 pub const REFERENCE_EDGE_TANGENTS: [[f64; 2]; 3] = [[1.0, 0.0], [-1.0, 1.0], [0.0, -1.0]];
@@ -95,6 +103,9 @@ pub enum RtOrder {
     Rt0,
     /// Next order: normal trace linear per edge; 8 DOFs (edge end points, two interior moments).
     Rt1,
+    /// Normal trace quadratic per edge; 15 DOFs (edge end points and midpoints, six interior
+    /// moments).
+    Rt2,
 }
 
 impl RtOrder {
@@ -104,25 +115,29 @@ impl RtOrder {
         match self {
             RtOrder::Rt0 => 0,
             RtOrder::Rt1 => 1,
+            RtOrder::Rt2 => 2,
         }
     }
 
-    /// Number of basis functions: [`RT0_DOFS`] or [`RT1_DOFS`].
+    /// Number of basis functions: [`RT0_DOFS`], [`RT1_DOFS`] or [`RT2_DOFS`].
     #[inline]
     pub const fn dofs(self) -> usize {
         match self {
             RtOrder::Rt0 => RT0_DOFS,
             RtOrder::Rt1 => RT1_DOFS,
+            RtOrder::Rt2 => RT2_DOFS,
         }
     }
 
-    /// The parameters s of the edge DOFs on each edge, ascending: RT_0 `[½]`, RT_1 `[0, 1]`.
+    /// The parameters s of the edge DOFs on each edge, ascending: RT_0 `[½]`, RT_1 `[0, 1]`,
+    /// RT_2 `[0, ½, 1]`.
     /// Symmetric under s ↦ 1 − s, which [`local_to_global_edge`] relies on.
     #[inline]
     pub const fn edge_points(self) -> &'static [f64] {
         match self {
             RtOrder::Rt0 => &[0.5],
             RtOrder::Rt1 => &[0.0, 1.0],
+            RtOrder::Rt2 => &[0.0, 0.5, 1.0],
         }
     }
 
@@ -132,7 +147,7 @@ impl RtOrder {
         self.k() + 1
     }
 
-    /// Number of interior DOFs (RT_0: 0, RT_1: 2).
+    /// Number of interior DOFs (RT_0: 0, RT_1: 2, RT_2: 6).
     #[inline]
     pub const fn interior_dofs(self) -> usize {
         self.dofs() - 3 * self.edge_dofs()
@@ -145,69 +160,116 @@ impl RtOrder {
         edge * self.edge_dofs() + slot
     }
 
-    /// Local index of interior DOF `i` (0: ∫φ̂_x, 1: ∫φ̂_y): `3 · edge_dofs() + i`.
+    /// Local index of interior DOF `i`: `3 · edge_dofs() + i`. Interior DOF i is ∫_T̂ φ̂_c q_m
+    /// with m = i / 2, c = i mod 2 (0: x, 1: y) and q_0, q_1, q_2 = 1, ξ, η: 0 ∫φ̂_x, 1 ∫φ̂_y,
+    /// 2 ∫φ̂_x ξ, 3 ∫φ̂_y ξ, 4 ∫φ̂_x η, 5 ∫φ̂_y η (module doc).
     #[inline]
     pub const fn interior_dof(self, i: usize) -> usize {
         3 * self.edge_dofs() + i
     }
 }
 
-/// Coefficients of a scalar polynomial of degree ≤ 2 in the monomials 1, ξ, η, ξ², ξη, η².
-type Poly = [f64; 6];
+/// Number of monomials of degree ≤ 3.
+const TERMS: usize = 10;
 
-/// ∫_T̂ of the monomials 1, ξ, η, ξ², ξη, η² (a! b!/(a + b + 2)!).
-const MONOMIAL_MOMENTS: Poly = [
-    1.0 / 2.0,
-    1.0 / 6.0,
-    1.0 / 6.0,
-    1.0 / 12.0,
-    1.0 / 24.0,
-    1.0 / 12.0,
+/// Coefficients of a scalar polynomial of degree ≤ 3 in the monomials 1, ξ, η, ξ², ξη, η², ξ³,
+/// ξ²η, ξη², η³ (degree by degree, ξ-power descending: ξ^a η^b has index
+/// (a + b)(a + b + 1)/2 + b).
+type Poly = [f64; TERMS];
+
+/// The exponents (a, b) of the monomials of [`Poly`].
+const EXPONENTS: [(usize, usize); TERMS] = [
+    (0, 0),
+    (1, 0),
+    (0, 1),
+    (2, 0),
+    (1, 1),
+    (0, 2),
+    (3, 0),
+    (2, 1),
+    (1, 2),
+    (0, 3),
 ];
 
-/// The monomials 1, ξ, η, ξ², ξη, η² at `xi`.
+/// The index of ξ^a η^b in [`Poly`].
+const fn monomial_index(a: usize, b: usize) -> usize {
+    (a + b) * (a + b + 1) / 2 + b
+}
+
+/// ∫_T̂ ξ^a η^b dξ = a! b!/(a + b + 2)!.
+fn monomial_moment(a: usize, b: usize) -> f64 {
+    let factorial = |n: usize| (1..=n).map(|i| i as f64).product::<f64>();
+    factorial(a) * factorial(b) / factorial(a + b + 2)
+}
+
+/// The exponents of the interior test functions q_0, q_1, q_2 = 1, ξ, η (module doc).
+const MOMENT_WEIGHTS: [(usize, usize); 3] = [(0, 0), (1, 0), (0, 1)];
+
+/// The interior test function q_m at `xi`.
+#[inline]
+fn moment_weight(m: usize, xi: [f64; 2]) -> f64 {
+    match m {
+        0 => 1.0,
+        1 => xi[0],
+        _ => xi[1],
+    }
+}
+
+/// The monomials of [`Poly`] at `xi`.
 #[inline]
 fn monomials(xi: [f64; 2]) -> Poly {
     let [x, y] = xi;
-    [1.0, x, y, x * x, x * y, y * y]
+    let (xx, xy, yy) = (x * x, x * y, y * y);
+    [1.0, x, y, xx, xy, yy, xx * x, xx * y, xy * y, yy * y]
 }
 
+/// Σ_q p_q m_q over the first `terms` monomials.
 #[inline]
-fn eval(p: &Poly, m: &Poly) -> f64 {
-    p.iter().zip(m).map(|(a, b)| a * b).sum()
+fn eval(p: &[f64], m: &Poly, terms: usize) -> f64 {
+    p[..terms].iter().zip(m).map(|(a, b)| a * b).sum()
 }
 
-/// The nodal basis of one order: component polynomials of each function and its divergence
-/// (coefficients of 1, ξ, η).
+/// The nodal basis of one order: component polynomials of each function and its divergence.
 #[derive(Debug)]
 struct NodalBasis {
     n: usize,
+    /// Monomials used by the values ((k + 2)(k + 3)/2) and by the divergences ((k + 1)(k + 2)/2).
+    value_terms: usize,
+    divergence_terms: usize,
     values: [[Poly; 2]; MAX_RT_DOFS],
-    divergence: [[f64; 3]; MAX_RT_DOFS],
+    divergence: [Poly; MAX_RT_DOFS],
 }
 
 /// The monomial basis of RT_k (module doc), as component polynomials.
 fn monomial_basis(order: RtOrder) -> Vec<[Poly; 2]> {
-    let unit = |i: usize| {
-        let mut p = [0.0; 6];
-        p[i] = 1.0;
+    let unit = |a: usize, b: usize| {
+        let mut p = [0.0; TERMS];
+        p[monomial_index(a, b)] = 1.0;
         p
     };
-    let zero = [0.0; 6];
-    let (one, x, y, xx, xy, yy) = (unit(0), unit(1), unit(2), unit(3), unit(4), unit(5));
-    match order {
-        RtOrder::Rt0 => vec![[one, zero], [zero, one], [x, y]],
-        RtOrder::Rt1 => vec![
-            [one, zero],
-            [zero, one],
-            [x, zero],
-            [zero, x],
-            [y, zero],
-            [zero, y],
-            [xx, xy],
-            [xy, yy],
-        ],
+    let zero = [0.0; TERMS];
+    let k = order.k();
+    // P_k²: (m, 0), (0, m) for the monomials m of degree ≤ k, in [`Poly`] order.
+    let mut fields: Vec<[Poly; 2]> = Vec::with_capacity(order.dofs());
+    for &(a, b) in EXPONENTS.iter().filter(|(a, b)| a + b <= k) {
+        fields.push([unit(a, b), zero]);
+        fields.push([zero, unit(a, b)]);
     }
+    // ξ P̃_k: h (ξ, η) for the monomials h of degree exactly k.
+    for &(a, b) in EXPONENTS.iter().filter(|(a, b)| a + b == k) {
+        fields.push([unit(a + 1, b), unit(a, b + 1)]);
+    }
+    fields
+}
+
+/// ∫_T̂ p q_m dξ, exactly.
+fn polynomial_moment(p: &Poly, m: usize) -> f64 {
+    let (sa, sb) = MOMENT_WEIGHTS[m];
+    p.iter()
+        .zip(EXPONENTS)
+        .filter(|(c, _)| **c != 0.0)
+        .map(|(c, (a, b))| c * monomial_moment(a + sa, b + sb))
+        .sum()
 }
 
 /// The DOFs of a polynomial field, evaluated exactly.
@@ -216,11 +278,11 @@ fn polynomial_dofs(order: RtOrder, f: &[Poly; 2]) -> Vec<f64> {
     for (e, nu) in REFERENCE_FLUX_NORMALS.iter().enumerate() {
         for &s in order.edge_points() {
             let m = monomials(edge_reference_point(e, s));
-            d.push(eval(&f[0], &m) * nu[0] + eval(&f[1], &m) * nu[1]);
+            d.push(eval(&f[0], &m, TERMS) * nu[0] + eval(&f[1], &m, TERMS) * nu[1]);
         }
     }
-    for c in f.iter().take(order.interior_dofs()) {
-        d.push(eval(c, &MONOMIAL_MOMENTS));
+    for i in 0..order.interior_dofs() {
+        d.push(polynomial_moment(&f[i % 2], i / 2));
     }
     d
 }
@@ -266,22 +328,32 @@ fn build(order: RtOrder) -> NodalBasis {
         .map(|i| (0..n).map(|m| columns[m][i]).collect())
         .collect();
     let c = invert(d);
-    let mut values = [[[0.0; 6]; 2]; MAX_RT_DOFS];
-    let mut divergence = [[0.0; 3]; MAX_RT_DOFS];
+    let mut values = [[[0.0; TERMS]; 2]; MAX_RT_DOFS];
+    let mut divergence = [[0.0; TERMS]; MAX_RT_DOFS];
     for j in 0..n {
         for (m, field) in mono.iter().enumerate() {
             for comp in 0..2 {
-                for q in 0..6 {
+                for q in 0..TERMS {
                     values[j][comp][q] += c[m][j] * field[comp][q];
                 }
             }
         }
-        // ∂/∂ξ of φ_x + ∂/∂η of φ_y, in the monomials 1, ξ, η.
+        // ∂φ_x/∂ξ + ∂φ_y/∂η, term by term.
         let [px, py] = values[j];
-        divergence[j] = [px[1] + py[2], 2.0 * px[3] + py[4], px[4] + 2.0 * py[5]];
+        for (q, &(a, b)) in EXPONENTS.iter().enumerate() {
+            if a > 0 {
+                divergence[j][monomial_index(a - 1, b)] += a as f64 * px[q];
+            }
+            if b > 0 {
+                divergence[j][monomial_index(a, b - 1)] += b as f64 * py[q];
+            }
+        }
     }
+    let k = order.k();
     NodalBasis {
         n,
+        value_terms: (k + 2) * (k + 3) / 2,
+        divergence_terms: (k + 1) * (k + 2) / 2,
         values,
         divergence,
     }
@@ -290,9 +362,11 @@ fn build(order: RtOrder) -> NodalBasis {
 fn basis(order: RtOrder) -> &'static NodalBasis {
     static RT0: OnceLock<NodalBasis> = OnceLock::new();
     static RT1: OnceLock<NodalBasis> = OnceLock::new();
+    static RT2: OnceLock<NodalBasis> = OnceLock::new();
     match order {
         RtOrder::Rt0 => RT0.get_or_init(|| build(RtOrder::Rt0)),
         RtOrder::Rt1 => RT1.get_or_init(|| build(RtOrder::Rt1)),
+        RtOrder::Rt2 => RT2.get_or_init(|| build(RtOrder::Rt2)),
     }
 }
 
@@ -303,10 +377,10 @@ pub fn reference(order: RtOrder, xi: [f64; 2]) -> ([[f64; 2]; MAX_RT_DOFS], [f64
     let m = monomials(xi);
     let mut v = [[0.0; 2]; MAX_RT_DOFS];
     let mut d = [0.0; MAX_RT_DOFS];
+    let (nv, nd) = (b.value_terms, b.divergence_terms);
     for j in 0..b.n {
-        v[j] = [eval(&b.values[j][0], &m), eval(&b.values[j][1], &m)];
-        let [d0, d1, d2] = b.divergence[j];
-        d[j] = d0 + d1 * xi[0] + d2 * xi[1];
+        v[j] = [eval(&b.values[j][0], &m, nv), eval(&b.values[j][1], &m, nv)];
+        d[j] = eval(&b.divergence[j], &m, nd);
     }
     (v, d)
 }
@@ -371,23 +445,31 @@ pub fn edge_flux_normal(t: [f64; 2]) -> [f64; 2] {
 
 /// Weights w_i(s) with q_e(s) = Σ_i w_i(s) c_{edge_dof(e, i)}: the flux density per unit of s
 /// on local edge e of the field Σ_j c_j φ_j (interior functions and the other edges' functions
-/// have zero normal trace on edge e). RT_0: `[1]`; RT_1: `[1 − s, s]`. The physical normal trace is
-/// q_e(s) / |x'(s)|. Unused slot 0.
+/// have zero normal trace on edge e): the Lagrange basis of degree k in s at
+/// [`RtOrder::edge_points`]. RT_0: `[1]`; RT_1: `[1 − s, s]`; RT_2:
+/// `[(1 − s)(1 − 2s), 4s(1 − s), s(2s − 1)]`. The physical normal trace is q_e(s) / |x'(s)|.
+/// Unused slots 0.
 #[inline]
-pub fn edge_trace_weights(order: RtOrder, s: f64) -> [f64; 2] {
+pub fn edge_trace_weights(order: RtOrder, s: f64) -> [f64; 3] {
     match order {
-        RtOrder::Rt0 => [1.0, 0.0],
-        RtOrder::Rt1 => [1.0 - s, s],
+        RtOrder::Rt0 => [1.0, 0.0, 0.0],
+        RtOrder::Rt1 => [1.0 - s, s, 0.0],
+        RtOrder::Rt2 => [
+            (1.0 - s) * (1.0 - 2.0 * s),
+            4.0 * s * (1.0 - s),
+            s * (2.0 * s - 1.0),
+        ],
     }
 }
 
 /// The DOFs of a physical field σ on the cell with 3 or 6 nodes `nodes` (the interpolant is
 /// Σ_j c_j φ_j). `f(ξ, x(ξ))` returns σ at the point x(ξ). Edge DOFs: σ(x(s)) · R x'(s) at the
-/// edge points, with x'(s) = J(ξ(s)) t̂_e; interior moments (RT_1): ∫_T̂ adj(J) σ(x(ξ)) dξ (the
-/// inverse Piola map, adj J = det J · J⁻¹), by the triangle rule of degree
-/// [`INTERPOLATION_DEGREE`]: exact when adj(J) σ(x(ξ)) is a polynomial of degree ≤ 10 (any σ
-/// of degree ≤ 4 in x on a curved cell, ≤ 10 on a straight one). Panics for a node count other
-/// than 3 or 6.
+/// edge points, with x'(s) = J(ξ(s)) t̂_e; interior moments (RT_1, RT_2): ∫_T̂ (adj(J) σ(x(ξ)))_c
+/// q_m(ξ) dξ (the inverse Piola map, adj J = det J · J⁻¹; q_m ∈ {1, ξ, η} as in the module doc),
+/// by the triangle rule of degree [`INTERPOLATION_DEGREE`]: exact when adj(J) σ(x(ξ)) q_m is a
+/// polynomial of degree ≤ 10 (any σ of degree ≤ 4 in x on a curved cell, ≤ 9 on a straight
+/// one; the Piola image of any RT_2 field on any cell). Panics for a node count other than 3
+/// or 6.
 pub fn interpolate(
     order: RtOrder,
     nodes: &[[f64; 2]],
@@ -408,18 +490,22 @@ pub fn interpolate(
             c[order.edge_dof(e, slot)] = sigma[0] * nu[0] + sigma[1] * nu[1];
         }
     }
-    if order.interior_dofs() > 0 {
+    let nint = order.interior_dofs();
+    if nint > 0 {
         let rule = triangle_rule_cached(INTERPOLATION_DEGREE);
-        let mut m = [0.0; 2];
+        let mut m = [0.0; 6];
         for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
             // adj J = [[J11, −J01], [−J10, J00]].
             let [[j00, j01], [j10, j11]] = map.jacobian(xi).matrix;
             let s = f(xi, map.position(xi));
-            m[0] += w * (j11 * s[0] - j01 * s[1]);
-            m[1] += w * (-j10 * s[0] + j00 * s[1]);
+            let a = [j11 * s[0] - j01 * s[1], -j10 * s[0] + j00 * s[1]];
+            for (i, mi) in m.iter_mut().enumerate().take(nint) {
+                *mi += w * moment_weight(i / 2, xi) * a[i % 2];
+            }
         }
-        c[order.interior_dof(0)] = m[0];
-        c[order.interior_dof(1)] = m[1];
+        for (i, &mi) in m.iter().enumerate().take(nint) {
+            c[order.interior_dof(i)] = mi;
+        }
     }
     c
 }
@@ -456,7 +542,7 @@ mod tests {
     use crate::geometry::map::{LinearTriangle, QuadraticTriangle};
     use crate::quadrature::{line_rule, triangle_rule};
 
-    const ORDERS: [RtOrder; 2] = [RtOrder::Rt0, RtOrder::Rt1];
+    const ORDERS: [RtOrder; 3] = [RtOrder::Rt0, RtOrder::Rt1, RtOrder::Rt2];
     const REFERENCE_NODES: [[f64; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
 
     fn sample_points() -> Vec<[f64; 2]> {
@@ -475,6 +561,17 @@ mod tests {
             "{what}: {a} vs {b} (diff {:e})",
             (a - b).abs()
         );
+    }
+
+    /// Tolerance factor for round-off-scale checks: the RT_2 basis has values and
+    /// divergences in the hundreds (the interior moment functions), so cancellation costs about
+    /// two digits more than for RT_0 and RT_1; and its third derivatives are large, which
+    /// enters central differences as O(H²).
+    fn scale(order: RtOrder) -> f64 {
+        match order {
+            RtOrder::Rt0 | RtOrder::Rt1 => 1.0,
+            RtOrder::Rt2 => 100.0,
+        }
     }
 
     fn straight_cell() -> [[f64; 2]; 3] {
@@ -527,15 +624,33 @@ mod tests {
     fn order_bookkeeping() {
         assert_eq!(RtOrder::Rt0.dofs(), RT0_DOFS);
         assert_eq!(RtOrder::Rt1.dofs(), RT1_DOFS);
+        assert_eq!(RtOrder::Rt2.dofs(), RT2_DOFS);
+        assert_eq!(MAX_RT_DOFS, RT2_DOFS);
         assert_eq!(RtOrder::Rt0.interior_dofs(), 0);
         assert_eq!(RtOrder::Rt1.interior_dofs(), 2);
+        assert_eq!(RtOrder::Rt2.interior_dofs(), 6);
+        assert_eq!(RtOrder::Rt2.k(), 2);
+        assert_eq!(RtOrder::Rt2.edge_dofs(), 3);
         assert_eq!(RtOrder::Rt0.edge_points(), &[0.5]);
         assert_eq!(RtOrder::Rt1.edge_points(), &[0.0, 1.0]);
+        assert_eq!(RtOrder::Rt2.edge_points(), &[0.0, 0.5, 1.0]);
         assert_eq!(RtOrder::Rt1.edge_dof(2, 1), 5);
         assert_eq!(RtOrder::Rt1.interior_dof(1), 7);
         assert_eq!(RtOrder::Rt0.edge_dof(2, 0), 2);
+        assert_eq!(RtOrder::Rt2.edge_dof(2, 1), 7);
+        assert_eq!(RtOrder::Rt2.interior_dof(0), 9);
+        assert_eq!(RtOrder::Rt2.interior_dof(5), 14);
         for order in ORDERS {
             assert_eq!(3 * order.edge_dofs() + order.interior_dofs(), order.dofs());
+            assert_eq!(order.edge_points().len(), order.edge_dofs());
+            // The trace weights are the Lagrange basis at the edge points.
+            for (i, &s) in order.edge_points().iter().enumerate() {
+                let w = edge_trace_weights(order, s);
+                for (l, &wl) in w.iter().enumerate() {
+                    let want = if l == i { 1.0 } else { 0.0 };
+                    assert_eq!(wl, want, "{order:?} w_{l}({s})");
+                }
+            }
             let pts = order.edge_points();
             for (i, &s) in pts.iter().enumerate() {
                 assert_eq!(1.0 - s, pts[pts.len() - 1 - i], "edge points symmetric");
@@ -579,10 +694,15 @@ mod tests {
                 d.push((v[0] * n[0] + v[1] * n[1]) * len);
             }
         }
-        if order == RtOrder::Rt1 {
-            let rule = triangle_rule(4);
-            d.push(rule.integrate(|xi| f(xi)[0]));
-            d.push(rule.integrate(|xi| f(xi)[1]));
+        // Interior: ∫ φ̂_c q_m, m major, c minor; q = 1, ξ, η.
+        let rule = triangle_rule(4);
+        let q = [
+            |_: [f64; 2]| 1.0,
+            |xi: [f64; 2]| xi[0],
+            |xi: [f64; 2]| xi[1],
+        ];
+        for i in 0..order.interior_dofs() {
+            d.push(rule.integrate(|xi| f(xi)[i % 2] * q[i / 2](xi)));
         }
         d
     }
@@ -594,7 +714,7 @@ mod tests {
                 let d = reference_dofs(order, |xi| reference_values(order, xi)[j]);
                 for (i, &di) in d.iter().enumerate() {
                     let want = if i == j { 1.0 } else { 0.0 };
-                    assert_close(di, want, 1e-14, &format!("{order:?} DOF {i} of φ{j}"));
+                    assert_close(di, want, 1e-12, &format!("{order:?} DOF {i} of φ{j}"));
                 }
             }
         }
@@ -616,7 +736,7 @@ mod tests {
                     let c = interpolate(order, nodes, |xi, _| physical(order, nodes, xi).0[j]);
                     for (i, &ci) in c.iter().enumerate() {
                         let want = if i == j { 1.0 } else { 0.0 };
-                        assert_close(ci, want, 1e-13, &format!("{order:?} DOF {i} of φ{j}"));
+                        assert_close(ci, want, 1e-12, &format!("{order:?} DOF {i} of φ{j}"));
                     }
                 }
             }
@@ -710,7 +830,7 @@ mod tests {
                 for (j, &dj) in d.iter().enumerate().take(order.dofs()) {
                     let fd = dx([xi[0] + H, xi[1]], [xi[0] - H, xi[1]], 0, j)
                         + dx([xi[0], xi[1] + H], [xi[0], xi[1] - H], 1, j);
-                    assert_close(dj, fd, 1e-9, &format!("{order:?} div φ̂{j}"));
+                    assert_close(dj, fd, 1e-9 * scale(order), &format!("{order:?} div φ̂{j}"));
                 }
             }
         }
@@ -733,7 +853,12 @@ mod tests {
                 let (yp, ym) = (value([x[0], x[1] + H]), value([x[0], x[1] - H]));
                 for j in 0..order.dofs() {
                     let fd = (xp[j][0] - xm[j][0] + yp[j][1] - ym[j][1]) / (2.0 * H);
-                    assert_close(div[j], fd, 1e-8, &format!("{order:?} div φ{j}"));
+                    assert_close(
+                        div[j],
+                        fd,
+                        1e-8 * scale(order),
+                        &format!("{order:?} div φ{j}"),
+                    );
                 }
             }
         }
@@ -755,9 +880,9 @@ mod tests {
                 let (vq, dq, jq) = physical(order, &quad, xi);
                 assert_close(jl, jq, 1e-15, "det J");
                 for j in 0..MAX_RT_DOFS {
-                    assert_close(dl[j], dq[j], 1e-13, "div");
+                    assert_close(dl[j], dq[j], 1e-13 * scale(order), "div");
                     for c in 0..2 {
-                        assert_close(vl[j][c], vq[j][c], 1e-13, "value");
+                        assert_close(vl[j][c], vq[j][c], 1e-13 * scale(order), "value");
                     }
                 }
             }
@@ -789,16 +914,59 @@ mod tests {
                     });
                     boundary += *flux;
                 }
-                assert_close(volume, boundary, 1e-13, &format!("{order:?} φ{j}"));
-                // Edge function of edge e: flux ∫ w_i(s) ds through e (1 or ½), 0 elsewhere.
+                assert_close(volume, boundary, 1e-12, &format!("{order:?} φ{j}"));
+                // Edge function of edge e, slot i: flux ∫ w_i(s) ds through e (RT_0: 1, RT_1: ½,
+                // RT_2: 1/6, 2/3, 1/6), 0 elsewhere.
                 for (e, &flux) in fluxes.iter().enumerate() {
                     let want = if j < 3 * order.edge_dofs() && j / order.edge_dofs() == e {
-                        1.0 / order.edge_dofs() as f64
+                        slot_flux(order, j % order.edge_dofs())
                     } else {
                         0.0
                     };
-                    assert_close(flux, want, 1e-13, &format!("{order:?} flux of φ{j}"));
+                    assert_close(flux, want, 1e-12, &format!("{order:?} flux of φ{j}"));
                 }
+            }
+        }
+    }
+
+    /// ∫_0^1 w_i(s) ds, the total flux of the unit DOF at slot i ([`edge_trace_weights`]).
+    fn slot_flux(order: RtOrder, i: usize) -> f64 {
+        line_rule(4).integrate(|s| edge_trace_weights(order, s)[i])
+    }
+
+    #[test]
+    fn slot_fluxes() {
+        assert_close(slot_flux(RtOrder::Rt0, 0), 1.0, 1e-15, "RT_0");
+        for i in 0..2 {
+            assert_close(slot_flux(RtOrder::Rt1, i), 0.5, 1e-15, "RT_1");
+        }
+        for (i, want) in [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0].into_iter().enumerate() {
+            assert_close(slot_flux(RtOrder::Rt2, i), want, 1e-15, "RT_2");
+        }
+    }
+
+    /// On T̂: ∫_T̂ div̂ φ̂_j = Σ_e ∫_0^1 q_e(s) ds (divergence theorem), with the edge fluxes
+    /// those the DOFs prescribe (the nodal basis is dual to the point-value DOFs).
+    #[test]
+    fn reference_divergence_consistency() {
+        let rule = triangle_rule(6);
+        for order in ORDERS {
+            for j in 0..order.dofs() {
+                let volume = rule.integrate(|xi| reference_divergence(order, xi)[j]);
+                let mut boundary = 0.0;
+                for (e, nu) in REFERENCE_FLUX_NORMALS.iter().enumerate() {
+                    boundary += line_rule(6).integrate(|s| {
+                        let v = reference_values(order, edge_reference_point(e, s))[j];
+                        v[0] * nu[0] + v[1] * nu[1]
+                    });
+                }
+                let want = if j < 3 * order.edge_dofs() {
+                    slot_flux(order, j % order.edge_dofs())
+                } else {
+                    0.0
+                };
+                assert_close(volume, boundary, 1e-12, &format!("{order:?} φ̂{j}"));
+                assert_close(volume, want, 1e-12, &format!("{order:?} ∫div φ̂{j}"));
             }
         }
     }
@@ -822,7 +990,12 @@ mod tests {
                         let want = (0..order.edge_dofs())
                             .find(|&i| order.edge_dof(e, i) == j)
                             .map_or(0.0, |i| w[i]);
-                        assert_close(q, want, 1e-13, &format!("{order:?} edge {e} φ{j}"));
+                        assert_close(
+                            q,
+                            want,
+                            1e-13 * scale(order),
+                            &format!("{order:?} edge {e} φ{j}"),
+                        );
                     }
                 }
             }
@@ -886,11 +1059,21 @@ mod tests {
                 let (s1, s2) = (combine(&c1, &v1), combine(&c2, &v2));
                 let tn1 = s1[0] * n[0] + s1[1] * n[1];
                 let tn2 = s2[0] * n[0] + s2[1] * n[1];
-                assert_close(tn1, tn2, 1e-13, &format!("{order:?} σ·n at t = {t}"));
+                assert_close(
+                    tn1,
+                    tn2,
+                    1e-13 * scale(order),
+                    &format!("{order:?} σ·n at t = {t}"),
+                );
                 // And it is the global DOF trace over |x'(t)|.
                 let w = edge_trace_weights(order, t);
                 let q: f64 = (0..n_edge).map(|i| w[i] * global[i]).sum();
-                assert_close(tn1, q / edge.length_element(t), 1e-13, "trace = q/|x'|");
+                assert_close(
+                    tn1,
+                    q / edge.length_element(t),
+                    1e-13 * scale(order),
+                    "trace = q/|x'|",
+                );
             }
         }
     }
@@ -903,6 +1086,10 @@ mod tests {
         assert_eq!(b, vec![(2, 1, -1.0), (3, 0, -1.0)]);
         let b: Vec<_> = local_to_global_edge(RtOrder::Rt0, 1, false).collect();
         assert_eq!(b, vec![(1, 0, -1.0)]);
+        let f: Vec<_> = local_to_global_edge(RtOrder::Rt2, 2, true).collect();
+        assert_eq!(f, vec![(6, 0, 1.0), (7, 1, 1.0), (8, 2, 1.0)]);
+        let b: Vec<_> = local_to_global_edge(RtOrder::Rt2, 1, false).collect();
+        assert_eq!(b, vec![(3, 2, -1.0), (4, 1, -1.0), (5, 0, -1.0)]);
         // Reversal pairs s with 1 − s.
         for order in ORDERS {
             let pts = order.edge_points();
@@ -961,18 +1148,161 @@ mod tests {
                 [p[0] + x[0] * h, p[1] + x[1] * h]
             };
             check_reproduction(RtOrder::Rt1, nodes, rt1, 1e-13);
+            check_reproduction(RtOrder::Rt2, nodes, p1, 1e-12);
+            check_reproduction(RtOrder::Rt2, nodes, rt1, 1e-12);
+            // RT_2 = P_2² + x P̃_2.
+            let p2 = |x: [f64; 2]| {
+                let q = p1(x);
+                [
+                    q[0] + 0.6 * x[0] * x[0] - 1.4 * x[0] * x[1] + 0.9 * x[1] * x[1],
+                    q[1] - 0.8 * x[0] * x[0] + 0.3 * x[0] * x[1] + 1.7 * x[1] * x[1],
+                ]
+            };
+            check_reproduction(RtOrder::Rt2, nodes, p2, 1e-12);
+            let rt2 = |x: [f64; 2]| {
+                let h = 1.3 * x[0] * x[0] - 0.5 * x[0] * x[1] - 0.9 * x[1] * x[1];
+                let p = p2(x);
+                [p[0] + x[0] * h, p[1] + x[1] * h]
+            };
+            check_reproduction(RtOrder::Rt2, nodes, rt2, 1e-12);
+            // Each of ξ (ξ², ξη, η²)-type fields alone.
+            type Field = fn([f64; 2]) -> [f64; 2];
+            let cubic: [Field; 3] = [
+                |x| [x[0] * x[0] * x[0], x[0] * x[0] * x[1]],
+                |x| [x[0] * x[0] * x[1], x[0] * x[1] * x[1]],
+                |x| [x[0] * x[1] * x[1], x[1] * x[1] * x[1]],
+            ];
+            for f in cubic {
+                check_reproduction(RtOrder::Rt2, nodes, f, 1e-12);
+            }
+        }
+    }
+
+    /// Every field of RT_k on any cell (straight or curved) is the Piola image of a reference
+    /// field in RT_k(T̂): each monomial basis field and a combination of all of them is
+    /// reproduced by `interpolate` (DOFs, then the nodal basis) to round-off.
+    #[test]
+    fn interpolation_reproduces_piola_images_on_all_cells() {
+        let straight = straight_cell();
+        let curved = curved_cell();
+        let cells: [&[[f64; 2]]; 4] = [
+            &REFERENCE_NODES,
+            &straight,
+            &QuadraticTriangle::from_linear(&LinearTriangle::new(straight)).nodes,
+            &curved,
+        ];
+        for order in ORDERS {
+            let mono = monomial_basis(order);
+            let n = mono.len();
+            // The fields: each monomial, then Σ_m (0.3 + 0.17 m)(−1)^m m-th monomial.
+            let mut fields: Vec<Vec<f64>> = (0..n)
+                .map(|m| (0..n).map(|l| if l == m { 1.0 } else { 0.0 }).collect())
+                .collect();
+            fields.push(
+                (0..n)
+                    .map(|m| (0.3 + 0.17 * m as f64) * if m % 2 == 0 { 1.0 } else { -1.0 })
+                    .collect(),
+            );
+            let reference_field = |a: &[f64], xi: [f64; 2]| {
+                let mv = monomials(xi);
+                let mut v = [0.0; 2];
+                for (am, field) in a.iter().zip(&mono) {
+                    v[0] += am * eval(&field[0], &mv, TERMS);
+                    v[1] += am * eval(&field[1], &mv, TERMS);
+                }
+                v
+            };
+            for nodes in cells {
+                let map = CellMap::from_nodes(nodes).unwrap();
+                let piola_field = |a: &[f64], xi: [f64; 2]| {
+                    let jac = map.jacobian(xi);
+                    let [p, q] = reference_field(a, xi);
+                    let [[j00, j01], [j10, j11]] = jac.matrix;
+                    [(j00 * p + j01 * q) / jac.det, (j10 * p + j11 * q) / jac.det]
+                };
+                for a in &fields {
+                    let c = interpolate(order, nodes, |xi, _| piola_field(a, xi));
+                    for xi in sample_points() {
+                        let v = combine(&c, &physical(order, nodes, xi).0);
+                        let want = piola_field(a, xi);
+                        for k in 0..2 {
+                            assert_close(v[k], want[k], 1e-12, &format!("{order:?} at {xi:?}"));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// RT_0 ⊂ RT_1 ⊂ RT_2 on a curved cell: each lower-order function is reproduced.
+    #[test]
+    fn lower_orders_are_contained_in_higher_ones() {
+        let curved = curved_cell();
+        let pairs = [
+            (RtOrder::Rt0, RtOrder::Rt1),
+            (RtOrder::Rt0, RtOrder::Rt2),
+            (RtOrder::Rt1, RtOrder::Rt2),
+        ];
+        for (low, high) in pairs {
+            for j in 0..low.dofs() {
+                let c = interpolate(high, &curved, |xi, _| physical(low, &curved, xi).0[j]);
+                for xi in sample_points() {
+                    let v0 = physical(low, &curved, xi).0[j];
+                    let v1 = combine(&c, &physical(high, &curved, xi).0);
+                    for k in 0..2 {
+                        assert_close(v1[k], v0[k], 1e-12, &format!("{low:?} φ{j} in {high:?}"));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The normal trace of a general RT_2 function on each edge of a curved cell is the
+    /// quadratic through its three edge DOFs: q_e(s) at s = 0, ½, 1 is the DOF, and q_e at
+    /// other s is the quadratic interpolant of those three values.
+    #[test]
+    fn rt2_normal_trace_is_the_quadratic_through_the_dofs() {
+        let order = RtOrder::Rt2;
+        let nodes = curved_cell();
+        let cell = QuadraticTriangle::new(nodes);
+        let mut c = [0.0; MAX_RT_DOFS];
+        for (j, cj) in c.iter_mut().enumerate().take(order.dofs()) {
+            *cj = (1.0 + j as f64).sin() * 2.0 - 0.3;
+        }
+        for e in 0..3 {
+            let edge = cell.edge(e);
+            let q = |s: f64| {
+                let v = combine(&c, &physical(order, &nodes, edge_reference_point(e, s)).0);
+                let n = edge.normal(s);
+                (v[0] * n[0] + v[1] * n[1]) * edge.length_element(s)
+            };
+            let dofs: Vec<f64> = (0..3).map(|i| c[order.edge_dof(e, i)]).collect();
+            for (i, &s) in order.edge_points().iter().enumerate() {
+                assert_close(q(s), dofs[i], 1e-12, &format!("edge {e} DOF {i}"));
+            }
+            for k in 0..=20 {
+                let s = k as f64 / 20.0;
+                let (l0, l1, l2) = (
+                    (1.0 - s) * (1.0 - 2.0 * s),
+                    4.0 * s * (1.0 - s),
+                    s * (2.0 * s - 1.0),
+                );
+                let want = l0 * dofs[0] + l1 * dofs[1] + l2 * dofs[2];
+                assert_close(q(s), want, 1e-12, &format!("edge {e} at s = {s}"));
+            }
         }
     }
 
     #[test]
     fn interpolation_does_not_reproduce_outside_the_space() {
-        // RT_0 cannot hold a general P_1 field; RT_1 cannot hold (x², 0).
+        // RT_0 cannot hold a general P_1 field; RT_1 cannot hold (x², 0); RT_2 not (x³, 0).
         let nodes = straight_cell();
         let map = CellMap::from_nodes(&nodes).unwrap();
         type Field = fn([f64; 2]) -> [f64; 2];
-        let cases: [(RtOrder, Field); 2] = [
+        let cases: [(RtOrder, Field); 3] = [
             (RtOrder::Rt0, |x| [x[1], 0.0]),
             (RtOrder::Rt1, |x| [x[0] * x[0], 0.0]),
+            (RtOrder::Rt2, |x| [x[0] * x[0] * x[0], 0.0]),
         ];
         for (order, f) in cases {
             let c = interpolate(order, &nodes, |_, x| f(x));

@@ -115,10 +115,11 @@ fn project_points(k: usize, points: &[f64], g: impl Fn(f64) -> f64) -> [f64; 3] 
 }
 
 /// The RT order of the patch reconstruction for displacement degree p. RT_p is the right one
-/// (ψ_a Cε(u_h) has degree p, so RT_p reproduces an exact stress; design §5.10); RT_2 is not
-/// available yet, so every degree gets RT_1 (k ≥ 1 keeps the rigid motions in the moments).
-pub fn order_for_degree(_p: usize) -> RtOrder {
-    RtOrder::Rt1
+/// (ψ_a Cε(u_h) has degree p, so RT_p reproduces an exact stress; design §5.10): p = 1 (and
+/// p = 0) gets RT_1 (k ≥ 1 keeps the rigid motions in the moments), p ≥ 2 gets RT_2, the
+/// highest order available.
+pub fn order_for_degree(p: usize) -> RtOrder {
+    if p >= 2 { RtOrder::Rt2 } else { RtOrder::Rt1 }
 }
 
 /// Reconstructs σ_h patch by patch (module doc). Triangle meshes only; λ < ∞.
