@@ -20,11 +20,60 @@
 
 use crate::tolerance::{FLOW_ITERATIONS, FLOW_RELATIVE};
 
-/// p with L p = d on the non-sink vertices, p = 0 on the sinks (module doc), per component.
-/// `edges` are vertex pairs; `d` has one entry per vertex (sinks' entries are ignored).
-pub fn potentials(edges: &[[u32; 2]], sink: &[bool], d: &[[f64; 3]]) -> Vec<[f64; 3]> {
+/// A 3 × 3 matrix.
+pub type M3 = [[f64; 3]; 3];
+
+/// The orthogonal projector onto the complement of span(`g`) (Gram–Schmidt; vectors whose
+/// remainder is below `rel` of their norm are dependent): the moments a patch cannot take.
+pub fn complement(g: &[[f64; 3]], rel: f64) -> M3 {
+    let mut basis: Vec<[f64; 3]> = Vec::new();
+    for v in g {
+        let n0 = dot(*v, *v).sqrt();
+        if n0 == 0.0 {
+            continue;
+        }
+        let mut w = *v;
+        for _ in 0..2 {
+            for b in &basis {
+                let a = dot(w, *b);
+                for i in 0..3 {
+                    w[i] -= a * b[i];
+                }
+            }
+        }
+        let n = dot(w, w).sqrt();
+        if n > rel * n0 {
+            basis.push([w[0] / n, w[1] / n, w[2] / n]);
+        }
+    }
+    let mut q = [[0.0; 3]; 3];
+    for i in 0..3 {
+        q[i][i] = 1.0;
+        for j in 0..3 {
+            for b in &basis {
+                q[i][j] -= b[i] * b[j];
+            }
+        }
+    }
+    q
+}
+
+#[inline]
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+fn mul(q: &M3, v: [f64; 3]) -> [f64; 3] {
+    [dot(q[0], v), dot(q[1], v), dot(q[2], v)]
+}
+
+/// The potentials p of module doc: Q L Q p = Q d with p = Q p, where Q_a projects onto the
+/// moments patch a cannot take (identity for a patch without free fluxes, 0 for a Dirichlet
+/// patch, the complement of its normal-flux moments for a contact patch; [`complement`]).
+/// Returns q = Q p per vertex; the flow on edge (a, b) is q_a − q_b.
+pub fn potentials(edges: &[[u32; 2]], q: &[M3], d: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let n = d.len();
-    // CSR adjacency.
     let mut start = vec![0usize; n + 1];
     for &[a, b] in edges {
         start[a as usize + 1] += 1;
@@ -41,21 +90,31 @@ pub fn potentials(edges: &[[u32; 2]], sink: &[bool], d: &[[f64; 3]]) -> Vec<[f64
         adj[fill[b as usize]] = a;
         fill[b as usize] += 1;
     }
-    // Components without a sink: their defects are made mean-free (the rest is unreachable).
+    // Connected components and the moments none of their patches can take (the kernel of
+    // Q L Q: p constant = c with c in every range of Q_a): the defect along them stays.
     let mut comp = vec![u32::MAX; n];
-    let mut comps: Vec<(bool, Vec<u32>)> = Vec::new();
-    for s in 0..n {
-        if comp[s] != u32::MAX || start[s + 1] == start[s] {
+    let mut comps: Vec<(Vec<u32>, M3)> = Vec::new();
+    for s0 in 0..n {
+        if comp[s0] != u32::MAX || start[s0 + 1] == start[s0] {
             continue;
         }
         let id = comps.len() as u32;
-        let mut members = vec![s as u32];
-        comp[s] = id;
+        let mut members = vec![s0 as u32];
+        comp[s0] = id;
         let mut i = 0;
-        let mut has_sink = false;
+        let mut taken: Vec<[f64; 3]> = Vec::new();
         while i < members.len() {
             let v = members[i] as usize;
-            has_sink |= sink[v];
+            // I − Q_a spans what patch a takes.
+            for r in 0..3 {
+                let mut col = [0.0; 3];
+                for c in 0..3 {
+                    col[c] = if r == c { 1.0 } else { 0.0 } - q[v][c][r];
+                }
+                if dot(col, col) > 1e-24 {
+                    taken.push(col);
+                }
+            }
             for &w in &adj[start[v]..start[v + 1]] {
                 if comp[w as usize] == u32::MAX {
                     comp[w as usize] = id;
@@ -64,103 +123,115 @@ pub fn potentials(edges: &[[u32; 2]], sink: &[bool], d: &[[f64; 3]]) -> Vec<[f64
             }
             i += 1;
         }
-        comps.push((has_sink, members));
+        let kernel = complement(&taken, 1e-10);
+        comps.push((members, kernel));
     }
-    let free = |v: usize| !sink[v] && start[v + 1] > start[v];
-    let mut out = vec![[0.0; 3]; n];
-    for c in 0..3 {
-        let mut rhs: Vec<f64> = (0..n).map(|v| if free(v) { d[v][c] } else { 0.0 }).collect();
-        for (has_sink, members) in &comps {
-            if !has_sink {
-                let mean = members.iter().map(|&v| rhs[v as usize]).sum::<f64>()
-                    / members.len() as f64;
-                for &v in members {
-                    rhs[v as usize] -= mean;
+    let remove_kernel = |v: &mut [[f64; 3]]| {
+        for (members, k) in &comps {
+            if k.iter().all(|row| row.iter().all(|&x| x == 0.0)) {
+                continue;
+            }
+            let mut mean = [0.0; 3];
+            for &i in members {
+                for c in 0..3 {
+                    mean[c] += v[i as usize][c];
                 }
             }
-        }
-        let apply = |p: &[f64], out: &mut [f64]| {
-            for v in 0..n {
-                out[v] = if free(v) {
-                    let mut s = 0.0;
-                    for &w in &adj[start[v]..start[v + 1]] {
-                        s += p[v] - p[w as usize];
-                    }
-                    s
-                } else {
-                    0.0
-                };
-            }
-        };
-        let diag: Vec<f64> = (0..n)
-            .map(|v| (start[v + 1] - start[v]).max(1) as f64)
-            .collect();
-        let p = cg(&apply, &rhs, &diag, &comps);
-        for v in 0..n {
-            out[v][c] = p[v];
-        }
-    }
-    out
-}
-
-/// Preconditioned conjugate gradients for the symmetric positive (semi-)definite operator
-/// `apply` restricted to the free vertices; sink-free components are kept mean-free.
-fn cg(
-    apply: &dyn Fn(&[f64], &mut [f64]),
-    rhs: &[f64],
-    diag: &[f64],
-    comps: &[(bool, Vec<u32>)],
-) -> Vec<f64> {
-    let n = rhs.len();
-    let norm0 = rhs.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let mut x = vec![0.0; n];
-    if norm0 == 0.0 {
-        return x;
-    }
-    let project = |v: &mut [f64]| {
-        for (has_sink, members) in comps {
-            if !has_sink {
-                let mean = members.iter().map(|&i| v[i as usize]).sum::<f64>()
-                    / members.len() as f64;
-                for &i in members {
-                    v[i as usize] -= mean;
+            let m = members.len() as f64;
+            let km = mul(k, [mean[0] / m, mean[1] / m, mean[2] / m]);
+            for &i in members {
+                for c in 0..3 {
+                    v[i as usize][c] -= km[c];
                 }
             }
         }
     };
+    let apply = |p: &[[f64; 3]], out: &mut [[f64; 3]]| {
+        let qp: Vec<[f64; 3]> = (0..n).map(|v| mul(&q[v], p[v])).collect();
+        for v in 0..n {
+            let mut s = [0.0; 3];
+            for &w in &adj[start[v]..start[v + 1]] {
+                for c in 0..3 {
+                    s[c] += qp[v][c] - qp[w as usize][c];
+                }
+            }
+            out[v] = mul(&q[v], s);
+        }
+    };
+    let mut rhs: Vec<[f64; 3]> = (0..n)
+        .map(|v| {
+            if start[v + 1] > start[v] {
+                mul(&q[v], d[v])
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    remove_kernel(&mut rhs);
+    let diag: Vec<f64> = (0..n)
+        .map(|v| (start[v + 1] - start[v]).max(1) as f64)
+        .collect();
+    let p = cg(&apply, &rhs, &diag, &q, &remove_kernel);
+    (0..n).map(|v| mul(&q[v], p[v])).collect()
+}
+
+/// Preconditioned conjugate gradients for the symmetric positive semi-definite `apply`, the
+/// iterates kept in the range of Q and off the kernel.
+fn cg(
+    apply: &dyn Fn(&[[f64; 3]], &mut [[f64; 3]]),
+    rhs: &[[f64; 3]],
+    diag: &[f64],
+    q: &[M3],
+    remove_kernel: &dyn Fn(&mut [[f64; 3]]),
+) -> Vec<[f64; 3]> {
+    let n = rhs.len();
+    let inner = |a: &[[f64; 3]], b: &[[f64; 3]]| a.iter().zip(b).map(|(x, y)| dot(*x, *y)).sum::<f64>();
+    let norm0 = inner(rhs, rhs).sqrt();
+    let mut x = vec![[0.0; 3]; n];
+    if norm0 == 0.0 {
+        return x;
+    }
+    let precondition = |r: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        let mut z: Vec<[f64; 3]> = (0..n)
+            .map(|v| {
+                let s = 1.0 / diag[v];
+                mul(&q[v], [r[v][0] * s, r[v][1] * s, r[v][2] * s])
+            })
+            .collect();
+        remove_kernel(&mut z);
+        z
+    };
     let mut r = rhs.to_vec();
-    let mut z: Vec<f64> = r.iter().zip(diag).map(|(a, b)| a / b).collect();
-    project(&mut z);
+    let mut z = precondition(&r);
     let mut p = z.clone();
-    let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
-    let mut ap = vec![0.0; n];
+    let mut rz = inner(&r, &z);
+    let mut ap = vec![[0.0; 3]; n];
     for _ in 0..FLOW_ITERATIONS {
         apply(&p, &mut ap);
-        let pap: f64 = p.iter().zip(&ap).map(|(a, b)| a * b).sum();
+        let pap = inner(&p, &ap);
         if pap <= 0.0 || !pap.is_finite() {
             break;
         }
         let alpha = rz / pap;
         for i in 0..n {
-            x[i] += alpha * p[i];
-            r[i] -= alpha * ap[i];
+            for c in 0..3 {
+                x[i][c] += alpha * p[i][c];
+                r[i][c] -= alpha * ap[i][c];
+            }
         }
-        let rn = r.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if rn <= FLOW_RELATIVE * norm0 {
+        if inner(&r, &r).sqrt() <= FLOW_RELATIVE * norm0 {
             break;
         }
-        for i in 0..n {
-            z[i] = r[i] / diag[i];
-        }
-        project(&mut z);
-        let rz_new: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+        z = precondition(&r);
+        let rz_new = inner(&r, &z);
         let beta = rz_new / rz;
         rz = rz_new;
         for i in 0..n {
-            p[i] = z[i] + beta * p[i];
+            for c in 0..3 {
+                p[i][c] = z[i][c] + beta * p[i][c];
+            }
         }
     }
-    project(&mut x);
     x
 }
 
@@ -173,9 +244,10 @@ mod tests {
         // 0 — 1 — 2 — 3(sink): by hand, the flow on edge (i, i+1) is the sum of d over 0..=i,
         // and d'_a = d_a − (Lp)_a = 0 at the free vertices.
         let edges = [[0, 1], [1, 2], [2, 3]];
-        let sink = [false, false, false, true];
+        let id = complement(&[], 1e-10);
+        let q = [id, id, id, [[0.0; 3]; 3]];
         let d = [[1.0, 0.0, 2.0], [0.5, 0.0, 0.0], [-0.25, 1.0, 0.0], [9.0, 9.0, 9.0]];
-        let p = potentials(&edges, &sink, &d);
+        let p = potentials(&edges, &q, &d);
         let flows: Vec<f64> = edges
             .iter()
             .map(|&[a, b]| p[a as usize][0] - p[b as usize][0])
@@ -191,9 +263,9 @@ mod tests {
     #[test]
     fn a_sink_free_cycle_is_balanced_when_the_defects_sum_to_zero() {
         let edges = [[0, 1], [1, 2], [2, 3], [3, 0], [0, 2]];
-        let sink = [false; 4];
+        let q = [complement(&[], 1e-10); 4];
         let d = [[1.0, 0.0, 0.0], [-2.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 0.0, 0.0]];
-        let p = potentials(&edges, &sink, &d);
+        let p = potentials(&edges, &q, &d);
         let mut lp = [0.0; 4];
         for &[a, b] in &edges {
             let y = p[a as usize][0] - p[b as usize][0];
@@ -203,5 +275,20 @@ mod tests {
         for v in 0..4 {
             assert!((lp[v] - d[v][0]).abs() < 1e-12, "{lp:?}");
         }
+    }
+
+    #[test]
+    fn a_contact_patch_takes_only_its_normal_moments() {
+        // 0 — 1(contact: takes e_y only): the x-defect of 0 cannot go anywhere (kernel), the
+        // y-defect flows into 1; vertex 0 balanced in y exactly.
+        let edges = [[0, 1]];
+        let q = [complement(&[], 1e-10), complement(&[[0.0, 1.0, 0.0]], 1e-10)];
+        let d = [[0.0, 2.0, 0.0], [0.0, 0.0, 0.0]];
+        let p = potentials(&edges, &q, &d);
+        let y = [p[0][1] - p[1][1], p[0][0] - p[1][0]];
+        assert!((y[0] - 2.0).abs() < 1e-12 && y[1].abs() < 1e-12, "{p:?}");
+        // Projector of the complement of span(e_y): diag(1, 0, 1).
+        let c = complement(&[[0.0, 3.0, 0.0]], 1e-10);
+        assert_eq!(c, [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]);
     }
 }

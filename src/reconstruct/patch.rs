@@ -170,7 +170,7 @@ pub fn reconstruct(
             fill[v as usize] += 1;
         }
     }
-    let weak_symmetry = mesh.degree >= 2;
+    let weak_symmetry = std::env::var("FOSLS_P1_NOSYM").is_err() || mesh.degree >= 2;
     let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
     // Rotation moments about one point for all patches (the flows compare them).
     let origin = {
@@ -183,6 +183,14 @@ pub fn reconstruct(
         }
         [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])]
     };
+    // The rotation moments are taken per unit of this length (the flows compare them with the
+    // forces).
+    let length = mesh
+        .points
+        .iter()
+        .map(|p| (p[0] - origin[0]).abs().max((p[1] - origin[1]).abs()))
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
     let no_extra: Vec<Vec<Extra>> = Vec::new();
     let solve_all = |extra: &Vec<Vec<Extra>>| -> Vec<PatchOut> {
         vertices
@@ -196,6 +204,7 @@ pub fn reconstruct(
                     condition: &condition,
                     weak_symmetry,
                     origin,
+                    length,
                 };
                 solve_patch(ctx, u, &setup, v as u32, cells, ex)
             })
@@ -206,25 +215,22 @@ pub fn reconstruct(
     // Galerkin solution of this discrete problem): move the defects to the sinks (flow.rs).
     let unbalanced = outs
         .iter()
-        .any(|o| !o.sink && o.defect > PATCH_DEFECT_RELATIVE);
+        .any(|o| o.defect > PATCH_DEFECT_RELATIVE && o.cannot_take != [[0.0; 3]; 3]);
     let mut balanced = false;
-    if unbalanced {
+    if unbalanced && std::env::var("FOSLS_NO_FLOW").is_err() {
         let mut d = vec![[0.0; 3]; npts];
-        let mut sink = vec![false; npts];
+        let mut q = vec![[[0.0; 3]; 3]; npts];
         for (o, &v) in outs.iter().zip(&vertices) {
             d[v] = o.balance;
-            if !weak_symmetry {
-                d[v][2] = 0.0;
-            }
-            sink[v] = o.sink;
+            q[v] = o.cannot_take;
         }
-        let p = flow::potentials(&topo.edges, &sink, &d);
+        let p = flow::potentials(&topo.edges, &q, &d);
         let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
             let y = [
                 p[a as usize][0] - p[b as usize][0],
                 p[a as usize][1] - p[b as usize][1],
-                p[a as usize][2] - p[b as usize][2],
+                (p[a as usize][2] - p[b as usize][2]) * length,
             ];
             if y == [0.0; 3] {
                 continue;
@@ -289,10 +295,13 @@ struct PatchOut {
     active: usize,
     settled: bool,
     defect: f64,
-    /// Moments of the patch load against e_x, e_y and (x − x₀)^⊥ (flow.rs's d_a).
+    /// Moments of the patch load against e_x, e_y and (x − x₀)^⊥/L (flow.rs's d_a).
     balance: [f64; 3],
-    /// The patch has free fluxes (Dirichlet or contact edges): it takes any load.
-    sink: bool,
+    /// The projector onto the moments the patch cannot take by free fluxes (flow.rs's Q_a):
+    /// 0 with Dirichlet edges, the complement of the normal (and, with friction, tangential)
+    /// flux moments on contact edges, and the identity otherwise; without weak symmetry the
+    /// rotation moment is not a constraint and is always taken.
+    cannot_take: flow::M3,
 }
 
 /// What every patch shares.
@@ -300,8 +309,9 @@ struct PatchSetup<'a> {
     order: RtOrder,
     condition: &'a [Option<Condition>],
     weak_symmetry: bool,
-    /// x₀ of the rotation moments.
+    /// x₀ of the rotation moments, and the length they are divided by.
     origin: [f64; 2],
+    length: f64,
 }
 
 /// An added body load on one cell of the patch: c₀e_x + c₁e_y + c₂(x − centre)^⊥ (flow.rs).
@@ -368,9 +378,14 @@ fn solve_patch(
     extra: &[Extra],
 ) -> PatchOut {
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
-    let x0 = setup.origin;
+    let (x0, length) = (setup.origin, setup.length);
     let mut balance = [0.0; 3];
-    let mut sink = false;
+    let mut dirichlet = false;
+    // Moments the free fluxes can take.
+    let mut takes: Vec<[f64; 3]> = Vec::new();
+    if !weak_symmetry {
+        takes.push([0.0, 0.0, 1.0]);
+    }
     let mesh = ctx.mesh;
     let topo = ctx.topo;
     let el = ctx.elastic;
@@ -419,7 +434,7 @@ fn solve_patch(
                 }
                 (false, _) => {}
                 (true, Condition::Dirichlet(_)) => {
-                    sink = true;
+                    dirichlet = true;
                     for row in vals.iter_mut() {
                         for v in row.iter_mut().take(ne) {
                             v.terms.push((nvar, 1.0));
@@ -447,7 +462,7 @@ fn solve_patch(
                                 traction[0].eval(sp.x[0], sp.x[1], 0.0),
                                 traction[1].eval(sp.x[0], sp.x[1], 0.0),
                             ];
-                            let rho = [-(sp.x[1] - x0[1]), sp.x[0] - x0[0]];
+                            let rho = [-(sp.x[1] - x0[1]) / length, (sp.x[0] - x0[0]) / length];
                             let g = wq * psi * len;
                             balance[0] -= g * tv[0];
                             balance[1] -= g * tv[1];
@@ -467,7 +482,6 @@ fn solve_patch(
                     }
                 }
                 (true, Condition::Contact(b)) => {
-                    sink = true;
                     let BoundaryKind::Contact(spec) = &scene.boundaries[b].kind else {
                         unreachable!("a contact edge has a contact spec")
                     };
@@ -490,6 +504,13 @@ fn solve_patch(
                             sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, owner_s(sg));
                         let cn = spec.direction(normal);
                         let ct = [-cn[1], cn[0]];
+                        let arm = [(sp.x[0] - x0[0]) / length, (sp.x[1] - x0[1]) / length];
+                        if spec.gap_at(sp.x, cn).is_finite() {
+                            takes.push([cn[0], cn[1], -arm[1] * cn[0] + arm[0] * cn[1]]);
+                            if cone {
+                                takes.push([ct[0], ct[1], -arm[1] * ct[0] + arm[0] * ct[1]]);
+                            }
+                        }
                         if !spec.gap_at(sp.x, cn).is_finite() {
                             for j in 0..ne {
                                 zero_vars.push(base + 2 * j);
@@ -598,7 +619,7 @@ fn solve_patch(
                 target[0] += ex.c[0] - ex.c[2] * (sp.x[1] - ex.centre[1]);
                 target[1] += ex.c[1] + ex.c[2] * (sp.x[0] - ex.centre[0]);
             }
-            let rho = [-(sp.x[1] - x0[1]), sp.x[0] - x0[0]];
+            let rho = [-(sp.x[1] - x0[1]) / length, (sp.x[0] - x0[0]) / length];
             balance[0] += w * target[0];
             balance[1] += w * target[1];
             balance[2] += w * (target[0] * rho[0] + target[1] * rho[1]);
@@ -744,7 +765,11 @@ fn solve_patch(
         settled,
         defect,
         balance,
-        sink,
+        cannot_take: if dirichlet {
+            [[0.0; 3]; 3]
+        } else {
+            flow::complement(&takes, PATCH_DEPENDENT_ROW)
+        },
     }
 }
 
