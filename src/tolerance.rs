@@ -175,3 +175,7 @@ pub const SYMMETRIC_RESIDUAL: f64 = 1e-9;
 /// decade, so 10⁴ steps cover meshes far beyond 10⁶ vertices at 1e-14.
 pub const FLOW_ITERATIONS: usize = 10_000;
 pub const FLOW_RELATIVE: f64 = 1e-14;
+
+/// Rounds of balancing flows and re-solved patches (`reconstruct::patch`): one round moves the
+/// load defects; a patch whose active set then changes leaves a smaller residual for the next.
+pub const FLOW_PASSES: usize = 3;

@@ -44,7 +44,7 @@ use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
-    EDGE_DEGREE, MIN_CONE_FRICTION, PATCH_ACTIVE_SET_ITERATIONS, PATCH_DEFECT_RELATIVE,
+    EDGE_DEGREE, FLOW_PASSES, MIN_CONE_FRICTION, PATCH_ACTIVE_SET_ITERATIONS, PATCH_DEFECT_RELATIVE,
     PATCH_DEPENDENT_ROW,
 };
 
@@ -211,13 +211,16 @@ pub fn reconstruct(
             .collect()
     };
     let mut outs = solve_all(&no_extra);
-    // Patches whose load has non-zero rigid-motion moments (a displacement that is not the
-    // Galerkin solution of this discrete problem): move the defects to the sinks (flow.rs).
-    let unbalanced = outs
-        .iter()
-        .any(|o| o.defect > PATCH_DEFECT_RELATIVE && o.cannot_take != [[0.0; 3]; 3]);
-    let mut balanced = false;
-    if unbalanced && std::env::var("FOSLS_NO_FLOW").is_err() {
+    // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
+    // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
+    // residual of the new solution is balanced again, up to FLOW_PASSES times.
+    let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
+    let mut passes = 0;
+    while passes < FLOW_PASSES
+        && outs
+            .iter()
+            .any(|o| o.defect > PATCH_DEFECT_RELATIVE && o.cannot_take != [[0.0; 3]; 3])
+    {
         let mut d = vec![[0.0; 3]; npts];
         let mut q = vec![[[0.0; 3]; 3]; npts];
         for (o, &v) in outs.iter().zip(&vertices) {
@@ -225,7 +228,6 @@ pub fn reconstruct(
             q[v] = o.cannot_take;
         }
         let p = flow::potentials(&topo.edges, &q, &d);
-        let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
             let y = [
                 p[a as usize][0] - p[b as usize][0],
@@ -253,7 +255,15 @@ pub fn reconstruct(
             }
         }
         outs = solve_all(&extra);
-        balanced = true;
+        passes += 1;
+    }
+    let balanced = passes > 0;
+    if std::env::var("FOSLS_DBG").is_ok() {
+        for (o, &v) in outs.iter().zip(&vertices) {
+            if o.defect > PATCH_DEFECT_RELATIVE {
+                eprintln!("v {v} x {:?} q0 {:?} defect {:.2e} e {:?} settled {} n {}", mesh.points[v], o.cannot_take[0], o.defect, o.balance, o.settled, o.unknowns);
+            }
+        }
     }
     let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
     let mut info = PatchInfo {
@@ -379,13 +389,10 @@ fn solve_patch(
 ) -> PatchOut {
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
     let (x0, length) = (setup.origin, setup.length);
-    let mut balance = [0.0; 3];
     let mut dirichlet = false;
-    // Moments the free fluxes can take.
-    let mut takes: Vec<[f64; 3]> = Vec::new();
-    if !weak_symmetry {
-        takes.push([0.0, 0.0, 1.0]);
-    }
+    // Per cell: its first row, and e_x, e_y, (x − x₀)^⊥/L in the moments 1, ξ, η (the rows'
+    // first three test functions; exact on straight cells).
+    let mut rigid: Vec<(usize, [[[f64; 3]; 2]; 3])> = Vec::with_capacity(cells.len());
     let mesh = ctx.mesh;
     let topo = ctx.topo;
     let el = ctx.elastic;
@@ -452,22 +459,6 @@ fn solve_patch(
                         let a_first = mesh.nodes(t)[l] == vertex;
                         let local_points: Vec<f64> =
                             order.edge_points().iter().map(|&s| owner_s(s)).collect();
-                        // The traction's moments leave the patch load (flow.rs's d_a).
-                        let lr = line_rule_cached(EDGE_DEGREE);
-                        for (&s, &wq) in lr.points.iter().zip(&lr.weights) {
-                            let (sp, _, len, _) =
-                                sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, s);
-                            let psi = if a_first { 1.0 - s } else { s };
-                            let tv = [
-                                traction[0].eval(sp.x[0], sp.x[1], 0.0),
-                                traction[1].eval(sp.x[0], sp.x[1], 0.0),
-                            ];
-                            let rho = [-(sp.x[1] - x0[1]) / length, (sp.x[0] - x0[0]) / length];
-                            let g = wq * psi * len;
-                            balance[0] -= g * tv[0];
-                            balance[1] -= g * tv[1];
-                            balance[2] -= g * (tv[0] * rho[0] + tv[1] * rho[1]);
-                        }
                         for (r, row) in vals.iter_mut().enumerate() {
                             let p = project_points(order.k(), &local_points, |s| {
                                 let (sp, _, len, _) =
@@ -504,13 +495,6 @@ fn solve_patch(
                             sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, owner_s(sg));
                         let cn = spec.direction(normal);
                         let ct = [-cn[1], cn[0]];
-                        let arm = [(sp.x[0] - x0[0]) / length, (sp.x[1] - x0[1]) / length];
-                        if spec.gap_at(sp.x, cn).is_finite() {
-                            takes.push([cn[0], cn[1], -arm[1] * cn[0] + arm[0] * cn[1]]);
-                            if cone {
-                                takes.push([ct[0], ct[1], -arm[1] * ct[0] + arm[0] * ct[1]]);
-                            }
-                        }
                         if !spec.gap_at(sp.x, cn).is_finite() {
                             for j in 0..ne {
                                 zero_vars.push(base + 2 * j);
@@ -619,10 +603,6 @@ fn solve_patch(
                 target[0] += ex.c[0] - ex.c[2] * (sp.x[1] - ex.centre[1]);
                 target[1] += ex.c[1] + ex.c[2] * (sp.x[0] - ex.centre[0]);
             }
-            let rho = [-(sp.x[1] - x0[1]) / length, (sp.x[0] - x0[0]) / length];
-            balance[0] += w * target[0];
-            balance[1] += w * target[1];
-            balance[2] += w * (target[0] * rho[0] + target[1] * rho[1]);
             let qv = [
                 1.0,
                 xi[0],
@@ -716,6 +696,21 @@ fn solve_patch(
                 bvec[va] += ca * bloc[a];
             }
         }
+        {
+            let (p0, p1, p2) = (x[0], x[1], x[2]);
+            let (dx1, dx2) = ([p1[0] - p0[0], p1[1] - p0[1]], [p2[0] - p0[0], p2[1] - p0[1]]);
+            rigid.push((
+                rows.len(),
+                [
+                    [[1.0, 0.0, 0.0], [0.0; 3]],
+                    [[0.0; 3], [1.0, 0.0, 0.0]],
+                    [
+                        [-(p0[1] - x0[1]) / length, -dx1[1] / length, -dx2[1] / length],
+                        [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
+                    ],
+                ],
+            ));
+        }
         let mut push_row = |g: &[f64], rhs: f64| {
             let mut row = vec![0.0; nvar];
             let mut r = rhs;
@@ -744,6 +739,28 @@ fn solve_patch(
         rows.push((row, 0.0));
     }
     let (x, active, settled, defect) = solve_qp(nvar, &m, &bvec, &rows, &bounded);
+    // The rigid-motion moments of the constraint residual (flow.rs's e_a): with the rows
+    // (div τ − target, q)_T and ∫_T as τ, e_i = ∫(target − div τ)·ρ_i, plus ∫ as τ/L for the
+    // rotation (the divergence theorem: ∫ div τ·ρ₃ = ∫_∂ τn·ρ₃ + ∫ as τ).
+    let residual = |k: usize| -> f64 {
+        let (row, d) = &rows[k];
+        row.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>() - d
+    };
+    let mut balance = [0.0; 3];
+    for &(start, coef) in &rigid {
+        for (i, bi) in balance.iter_mut().enumerate() {
+            for r in 0..2 {
+                for q in 0..3 {
+                    if coef[i][r][q] != 0.0 {
+                        *bi -= coef[i][r][q] * residual(start + r * nq + q);
+                    }
+                }
+            }
+        }
+        if weak_symmetry {
+            balance[2] += residual(start + 2 * nq) / length;
+        }
+    }
     let out_cells = cells
         .iter()
         .zip(&locals)
@@ -767,8 +784,10 @@ fn solve_patch(
         balance,
         cannot_take: if dirichlet {
             [[0.0; 3]; 3]
+        } else if weak_symmetry {
+            flow::complement(&[], PATCH_DEPENDENT_ROW)
         } else {
-            flow::complement(&takes, PATCH_DEPENDENT_ROW)
+            flow::complement(&[[0.0, 0.0, 1.0]], PATCH_DEPENDENT_ROW)
         },
     }
 }
