@@ -7,6 +7,7 @@ pub mod displacement;
 pub mod nodal;
 pub mod patch;
 pub mod projection;
+pub mod qp;
 pub mod stress;
 pub mod submesh;
 
