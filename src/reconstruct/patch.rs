@@ -549,6 +549,8 @@ fn solve_patch(
         }
         locals.push(map);
     }
+    // The contact equalities come last: relaxed first if the patch problem is infeasible.
+    let hard_rows = rhs.len();
     for &z in &zero_vars {
         let start = rows.len();
         rows.resize(start + nvar, 0.0);
@@ -561,7 +563,7 @@ fn solve_patch(
         settled,
         feasible,
         defect,
-    } = qp::solve(nvar, &m, &bvec, &rows, &rhs, &bounded);
+    } = qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded);
     let out_cells = cells
         .iter()
         .zip(&locals)

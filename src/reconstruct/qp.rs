@@ -31,10 +31,12 @@
 //! other. Hence the method is finite; [`PATCH_ACTIVE_SET_ITERATIONS`] only guards against
 //! round-off. When a violated bound is linearly dependent (in the K metric) on the working set
 //! and no working multiplier can decrease, the bounds and the equalities are incompatible (the
-//! GI infeasibility certificate); then the problem is re-solved with the equalities as a
-//! quadratic penalty (weight [`PATCH_QP_PENALTY`] relative to M) and the bounds hard, i.e. the
-//! equalities in the least-squares sense among points satisfying the bounds, and the result
-//! says `feasible: false`, with the defect showing the violation.
+//! GI infeasibility certificate); then the problem is re-solved with the bounds hard, the
+//! caller's "hard" rows (the first ones; for the patches the equilibrium rows) exact and the
+//! others (the contact equalities) as a quadratic penalty (weight [`PATCH_QP_PENALTY`] relative
+//! to M), i.e. in the least-squares sense among the points satisfying the rest; if that is
+//! still infeasible, with all rows penalised. The result says `feasible: false`, with the
+//! defect showing the violation.
 //!
 //! Cost: one Cholesky of M (n³/3), one multi-right-hand-side solve (n² per equality row and
 //! bound), one r × r Cholesky; the active-set loop then works on m × m data only.
@@ -69,20 +71,22 @@ pub struct QpResult {
 /// Solves min ½xᵀMx − bᵀx s.t. Bx = d, x_i ≤ 0 for i ∈ `bounded` (module doc).
 ///
 /// `m`: dense row-major n × n, only the lower triangle is read; `rows`: B dense row-major
-/// (d.len() × n); `bounded`: distinct indices < n. Never panics on singular or inconsistent
-/// data; the result is always finite.
+/// (d.len() × n); `bounded`: distinct indices < n. Rows from `hard_rows` on are relaxed first
+/// when the problem is infeasible (module doc); `hard_rows = d.len()` treats all alike. Never
+/// panics on singular or inconsistent data; the result is always finite.
 pub fn solve(
     n: usize,
     m: &[f64],
     b: &[f64],
     rows: &[f64],
     d: &[f64],
+    hard_rows: usize,
     bounded: &[usize],
 ) -> QpResult {
     assert_eq!(m.len(), n * n, "M is n × n");
     assert_eq!(b.len(), n, "b has n entries");
     assert_eq!(rows.len(), d.len() * n, "B is d.len() × n");
-    let (q, dq) = orthonormal_rows(n, rows, d);
+    let (q, dq, hard_q) = orthonormal_rows(n, rows, d, hard_rows);
     let mm = Mat::<f64>::from_fn(
         n,
         n,
@@ -94,27 +98,25 @@ pub fn solve(
         Some((x, active, Outcome::Cap)) => (x, active, false),
         Some((x0, a0, Outcome::Infeasible)) => {
             feasible = false;
-            // Least-squares equalities with hard bounds: M + ρQᵀQ, b + ρQᵀd_Q, no equalities.
-            let scale = (0..n).map(|i| mm[(i, i)].abs()).fold(0.0, f64::max);
-            let rho = PATCH_QP_PENALTY * scale;
-            let mut mp = mm.clone();
-            let mut bp = b.to_vec();
-            for (qi, &di) in q.chunks_exact(n.max(1)).zip(&dq) {
-                for j in 0..n {
-                    let a = rho * qi[j];
-                    if a == 0.0 {
-                        continue;
-                    }
-                    bp[j] += a * di;
-                    for (k, &qk) in qi.iter().enumerate() {
-                        mp[(k, j)] += a * qk;
-                    }
+            // Hard bounds, the first orthonormal rows (from the hard rows) exact and the others
+            // in the least-squares sense (penalty M + ρQ_sᵀQ_s, b + ρQ_sᵀd_s); if that is still
+            // infeasible, all rows penalised.
+            let r = dq.len();
+            let mut out = None;
+            for keep in [hard_q, 0] {
+                if keep == r && keep != 0 {
+                    continue;
+                }
+                let (mp, bp) = penalised(&mm, b, &q[keep * n..], &dq[keep..]);
+                let got = equality_bound_qp(&mp, &bp, &q[..keep * n], &dq[..keep], bounded);
+                if let Some((x, active, outcome)) = got
+                    && outcome != Outcome::Infeasible
+                {
+                    out = Some((x, active, outcome == Outcome::Optimal));
+                    break;
                 }
             }
-            match equality_bound_qp(&mp, &bp, &[], &[], bounded) {
-                Some((x, active, outcome)) => (x, active, outcome == Outcome::Optimal),
-                None => (x0, a0, false),
-            }
+            out.unwrap_or((x0, a0, false))
         }
         None => (vec![0.0; n], 0, false),
     };
@@ -137,7 +139,7 @@ pub fn solve(
 }
 
 /// max_k |B_k x − d_k| / max_k (Σ_j |B_kj x_j| + |d_k|), 0 without rows.
-fn defect(n: usize, rows: &[f64], d: &[f64], x: &[f64]) -> f64 {
+pub fn defect(n: usize, rows: &[f64], d: &[f64], x: &[f64]) -> f64 {
     let (mut worst, mut scale) = (0.0f64, 0.0f64);
     for (r, &dk) in rows.chunks_exact(n.max(1)).zip(d) {
         let (mut bx, mut abs) = (0.0, 0.0);
@@ -151,13 +153,40 @@ fn defect(n: usize, rows: &[f64], d: &[f64], x: &[f64]) -> f64 {
     if scale > 0.0 { worst / scale } else { 0.0 }
 }
 
-/// Orthonormal rows Q (flat, row-major) spanning the rows of B, and d_Q with the same
-/// combinations applied to d (module doc, step 1).
-fn orthonormal_rows(n: usize, rows: &[f64], d: &[f64]) -> (Vec<f64>, Vec<f64>) {
+/// M + ρQ_sᵀQ_s and b + ρQ_sᵀd_s, ρ = [`PATCH_QP_PENALTY`] × max M_ii (Q_s orthonormal rows).
+fn penalised(mm: &Mat<f64>, b: &[f64], qs: &[f64], ds: &[f64]) -> (Mat<f64>, Vec<f64>) {
+    let n = b.len();
+    let scale = (0..n).map(|i| mm[(i, i)].abs()).fold(0.0, f64::max);
+    let rho = PATCH_QP_PENALTY * scale;
+    let mut mp = mm.clone();
+    let mut bp = b.to_vec();
+    for (qi, &di) in qs.chunks_exact(n.max(1)).zip(ds) {
+        for j in 0..n {
+            let a = rho * qi[j];
+            if a == 0.0 {
+                continue;
+            }
+            bp[j] += a * di;
+            for (k, &qk) in qi.iter().enumerate() {
+                mp[(k, j)] += a * qk;
+            }
+        }
+    }
+    (mp, bp)
+}
+
+/// Orthonormal rows Q (flat, row-major) spanning the rows of B, d_Q with the same
+/// combinations applied to d (module doc, step 1), and how many of them come from the first
+/// `hard` rows.
+fn orthonormal_rows(n: usize, rows: &[f64], d: &[f64], hard: usize) -> (Vec<f64>, Vec<f64>, usize) {
     let mut q: Vec<f64> = Vec::with_capacity(rows.len().min(n * n));
     let mut dq: Vec<f64> = Vec::new();
+    let mut hard_q = 0;
     let mut v = vec![0.0; n];
-    for (row, &dk) in rows.chunks_exact(n.max(1)).zip(d) {
+    for (k, (row, &dk)) in rows.chunks_exact(n.max(1)).zip(d).enumerate() {
+        if k == hard {
+            hard_q = dq.len();
+        }
         let norm0 = row.iter().map(|a| a * a).sum::<f64>().sqrt();
         if norm0 == 0.0 {
             continue;
@@ -184,7 +213,10 @@ fn orthonormal_rows(n: usize, rows: &[f64], d: &[f64]) -> (Vec<f64>, Vec<f64>) {
         q.extend(v.iter().map(|a| a * s));
         dq.push(dv * s);
     }
-    (q, dq)
+    if hard >= d.len() {
+        hard_q = dq.len();
+    }
+    (q, dq, hard_q)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -453,7 +485,7 @@ mod tests {
 
     fn run(n: usize, m: &[f64], b: &[f64], r: &[(Vec<f64>, f64)], bounded: &[usize]) -> QpResult {
         let (rows, d) = rows_of(r);
-        solve(n, m, b, &rows, &d, bounded)
+        solve(n, m, b, &rows, &d, d.len(), bounded)
     }
 
     fn identity(n: usize) -> Vec<f64> {
@@ -568,6 +600,12 @@ mod tests {
             !res.feasible && res.defect > 0.1 && res.x[1] <= 0.0,
             "{res:?}"
         );
+        // Priority: x₀ + x₁ = 1 hard, x₁ = 0 soft, x₀ ≤ 0: the hard row holds, x₁ ≈ 1.
+        let (rows, d) = rows_of(&[(vec![1.0, 1.0, 0.0], 1.0), (vec![0.0, 1.0, 0.0], 0.0)]);
+        let res = solve(3, &m, &[0.0; 3], &rows, &d, 1, &[0]);
+        assert!(!res.feasible && res.settled && res.x[0] <= 0.0, "{res:?}");
+        assert!((res.x[0] + res.x[1] - 1.0).abs() < 1e-8, "{res:?}");
+        assert!((res.x[1] - 1.0).abs() < 1e-5, "{res:?}");
         // Singular M and NaN-free output anyway.
         let res = run(2, &[0.0; 4], &[1.0, 1.0], &[], &[0]);
         assert!(res.x.iter().all(|v| v.is_finite()));
