@@ -146,6 +146,11 @@ pub const CELL_STRESS_MISMATCH: f64 = 0.02;
 /// cap only guards against round-off breaking the monotonicity.
 pub const PATCH_ACTIVE_SET_ITERATIONS: usize = 200;
 
+/// Modified Gram–Schmidt of the patch rows (`reconstruct::qp`) re-orthogonalises a row only when
+/// the first pass left less than this fraction of its norm ("twice is enough", Daniel, Gragg,
+/// Kaufman & Stewart 1976: above 1/√2 one pass is already orthogonal to working precision).
+pub const PATCH_REORTHOGONALISE: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
 /// A violated bound whose Schur complement against the working set, in the metric of the
 /// equality-reduced inverse K, is below this fraction of (M⁻¹)_pp counts as linearly dependent on
 /// the working set and the equalities (`reconstruct::qp`): K is formed as M⁻¹ − M⁻¹Qᵀ S⁻¹ Q M⁻¹,

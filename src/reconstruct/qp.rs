@@ -9,7 +9,8 @@
 //! slightly inconsistent.
 //!
 //! Method ([`solve`]):
-//! 1. The rows of B are orthonormalised once (modified Gram–Schmidt, twice per row; a row whose
+//! 1. The rows of B are orthonormalised once (modified Gram–Schmidt, a second pass when the
+//!    first cancelled much of the row; a row whose
 //!    component orthogonal to the previous ones is below [`PATCH_DEPENDENT_ROW`] of its norm is
 //!    dependent and dropped, its right-hand side only showing in the defect): Q x = d_Q with
 //!    QQᵀ = I.
@@ -38,16 +39,20 @@
 //! still infeasible, with all rows penalised. The result says `feasible: false`, with the
 //! defect showing the violation.
 //!
-//! Cost: one Cholesky of M (n³/3), one multi-right-hand-side solve (n² per equality row and
-//! bound), one r × r Cholesky; the active-set loop then works on m × m data only.
+//! Cost: one Cholesky M = LLᵀ (n³/3), one forward substitution of b, Qᵀ and the bounds' unit
+//! vectors (n² each), S = VᵀV with V = L⁻¹Qᵀ and its Cholesky, one back substitution of 1 + m
+//! columns; the active-set loop then works on m × m data only.
 
 use faer::linalg::solvers::Llt;
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
 use faer::prelude::Solve;
-use faer::{Mat, Side};
+use faer::{Mat, Par, Side};
 
 use crate::tolerance::{
     PATCH_ACTIVE_SET_ITERATIONS, PATCH_DEPENDENT_ROW, PATCH_QP_DEPENDENT_BOUND,
-    PATCH_QP_FEASIBILITY, PATCH_QP_PENALTY, PATCH_QP_REGULARISATION,
+    PATCH_QP_FEASIBILITY, PATCH_QP_PENALTY, PATCH_QP_REGULARISATION, PATCH_REORTHOGONALISE,
 };
 
 /// The outcome of [`solve`].
@@ -193,6 +198,7 @@ fn orthonormal_rows(n: usize, rows: &[f64], d: &[f64], hard: usize) -> (Vec<f64>
         }
         v.copy_from_slice(row);
         let mut dv = dk;
+        let mut before = norm0;
         for _ in 0..2 {
             for (qj, &dj) in q.chunks_exact(n).zip(&dq) {
                 let a: f64 = qj.iter().zip(&v).map(|(p, w)| p * w).sum();
@@ -204,6 +210,13 @@ fn orthonormal_rows(n: usize, rows: &[f64], d: &[f64], hard: usize) -> (Vec<f64>
                 }
                 dv -= a * dj;
             }
+            // "Twice is enough" (Daniel–Gragg–Kaufman–Stewart 1976): a second pass only when
+            // the first one cancelled much of the row.
+            let after = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if after >= PATCH_REORTHOGONALISE * before {
+                break;
+            }
+            before = after;
         }
         let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
         if norm <= PATCH_DEPENDENT_ROW * norm0 {
@@ -268,58 +281,52 @@ fn equality_bound_qp(
     let r = dq.len();
     let nb = bounded.len();
     let llt = factor(mm)?;
-    // Columns: b | Qᵀ | E (the bounded unit vectors) → M⁻¹b | Y = M⁻¹Qᵀ | W = M⁻¹E.
-    let mut rhs = Mat::<f64>::zeros(n, 1 + r + nb);
+    let l = llt.L();
+    // Columns b | E (the bounded unit vectors) | Qᵀ, forward-substituted: β | U | V = L⁻¹(…).
+    let w = 1 + nb;
+    let mut rhs = Mat::<f64>::zeros(n, w + r);
     for i in 0..n {
         rhs[(i, 0)] = b[i];
     }
+    for (k, &p) in bounded.iter().enumerate() {
+        rhs[(p, 1 + k)] = 1.0;
+    }
     for (j, qj) in q.chunks_exact(n.max(1)).enumerate() {
         for i in 0..n {
-            rhs[(i, 1 + j)] = qj[i];
+            rhs[(i, w + j)] = qj[i];
         }
     }
-    for (k, &p) in bounded.iter().enumerate() {
-        rhs[(p, 1 + r + k)] = 1.0;
-    }
-    llt.solve_in_place(rhs.as_mut());
-    // (M⁻¹)_pp, the scale of the dependence test.
-    let wdiag: Vec<f64> = bounded
-        .iter()
-        .enumerate()
-        .map(|(k, &p)| rhs[(p, 1 + r + k)])
+    solve_lower_triangular_in_place(l, rhs.as_mut(), Par::Seq);
+    // (M⁻¹)_pp = |L⁻¹e_p|², the scale of the dependence test.
+    let wdiag: Vec<f64> = (0..nb)
+        .map(|k| (0..n).map(|i| rhs[(i, 1 + k)] * rhs[(i, 1 + k)]).sum())
         .collect();
+    // With S = VᵀV = Q M⁻¹ Qᵀ and C = S⁻¹[Vᵀβ − d_Q | VᵀU]: x₀ = L⁻ᵀ(β − V C₀) and
+    // K E = L⁻ᵀ(U − V C₁..), so only 1 + nb columns are back-substituted.
+    let mut out = rhs.as_ref().subcols(0, w).to_owned();
     if r > 0 {
-        let s = Mat::<f64>::from_fn(r, r, |i, j| {
-            let qi = &q[i * n..(i + 1) * n];
-            (0..n).map(|k| qi[k] * rhs[(k, 1 + j)]).sum()
-        });
+        let v = rhs.as_ref().subcols(w, r);
+        let s = v.transpose() * v;
         let sl = factor(&s)?;
-        // C = S⁻¹ [Q M⁻¹b − d_Q | Q W], Q W = Yᵀ E (Y's rows at the bounds).
-        let mut c = Mat::<f64>::from_fn(r, 1 + nb, |i, j| {
-            if j == 0 {
-                let qi = &q[i * n..(i + 1) * n];
-                (0..n).map(|k| qi[k] * rhs[(k, 0)]).sum::<f64>() - dq[i]
-            } else {
-                rhs[(bounded[j - 1], 1 + i)]
-            }
-        });
+        let mut c = v.transpose() * rhs.as_ref().subcols(0, w);
+        for (i, &di) in dq.iter().enumerate() {
+            c[(i, 0)] -= di;
+        }
         sl.solve_in_place(c.as_mut());
-        // x₀ = M⁻¹b − Y C₀, K E = W − Y C₁..
-        let y = rhs.as_ref().subcols(1, r);
-        let upd = y * c.as_ref();
-        for i in 0..n {
-            rhs[(i, 0)] -= upd[(i, 0)];
-            for k in 0..nb {
-                rhs[(i, 1 + r + k)] -= upd[(i, 1 + k)];
+        let upd = v * c.as_ref();
+        for j in 0..w {
+            for i in 0..n {
+                out[(i, j)] -= upd[(i, j)];
             }
         }
     }
-    let mut x: Vec<f64> = (0..n).map(|i| rhs[(i, 0)]).collect();
+    solve_upper_triangular_in_place(l.transpose(), out.as_mut(), Par::Seq);
+    let mut x: Vec<f64> = (0..n).map(|i| out[(i, 0)]).collect();
     if nb == 0 {
         return Some((x, 0, Outcome::Optimal));
     }
     let g: Vec<f64> = (0..nb * nb)
-        .map(|ij| rhs[(bounded[ij / nb], 1 + r + ij % nb)])
+        .map(|ij| out[(bounded[ij / nb], 1 + ij % nb)])
         .collect();
     let h: Vec<f64> = bounded.iter().map(|&p| x[p]).collect();
     let dep: Vec<f64> = wdiag.iter().map(|w| PATCH_QP_DEPENDENT_BOUND * w).collect();
@@ -329,7 +336,7 @@ fn equality_bound_qp(
     for (k, &l) in lambda.iter().enumerate() {
         if l != 0.0 {
             for (i, xi) in x.iter_mut().enumerate() {
-                *xi -= rhs[(i, 1 + r + k)] * l;
+                *xi -= out[(i, 1 + k)] * l;
             }
         }
     }
