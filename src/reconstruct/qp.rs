@@ -449,7 +449,8 @@ fn cholesky(m: usize, g: &[f64], set: &[usize], l: &mut [f64]) -> bool {
                 s -= l[i * m + t] * l[j * m + t];
             }
             if i == j {
-                if !(s > 0.0) {
+                // Also rejects NaN.
+                if s.is_nan() || s <= 0.0 {
                     return false;
                 }
                 l[i * m + i] = s.sqrt();
