@@ -140,10 +140,39 @@ pub const VERTEX_ONLY_RELATIVE: f64 = 1e-10;
 /// written at its vertices only (sfepy's default output) or of a wrong material.
 pub const CELL_STRESS_MISMATCH: f64 = 0.02;
 
-/// Cap on active-set changes of one patch QP (`reconstruct::patch`): a patch has at most a few
-/// dozen sign-constrained contact variables, and the primal–dual active set settles in a few
-/// steps; more means cycling.
-pub const PATCH_ACTIVE_SET_ITERATIONS: usize = 50;
+/// Cap on active-set changes (bounds added or dropped) of one patch QP (`reconstruct::qp`): the
+/// Goldfarb–Idnani dual method is finite (no working set recurs), and a patch has at most a few
+/// dozen sign-constrained contact variables, each typically added once and rarely dropped; the
+/// cap only guards against round-off breaking the monotonicity.
+pub const PATCH_ACTIVE_SET_ITERATIONS: usize = 200;
+
+/// Modified Gram–Schmidt of the patch rows (`reconstruct::qp`) re-orthogonalises a row only when
+/// the first pass left less than this fraction of its norm ("twice is enough", Daniel, Gragg,
+/// Kaufman & Stewart 1976: above 1/√2 one pass is already orthogonal to working precision).
+pub const PATCH_REORTHOGONALISE: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// A violated bound whose Schur complement against the working set, in the metric of the
+/// equality-reduced inverse K, is below this fraction of (M⁻¹)_pp counts as linearly dependent on
+/// the working set and the equalities (`reconstruct::qp`): K is formed as M⁻¹ − M⁻¹Qᵀ S⁻¹ Q M⁻¹,
+/// whose cancellation leaves errors ~1e-16 × cond(M) ≤ ~1e-12 relative on the patch matrices,
+/// while a genuinely independent bound has a ratio well above 1e-6.
+pub const PATCH_QP_DEPENDENT_BOUND: f64 = 1e-9;
+
+/// A bound slack x_i counts as violated above this fraction of max|x₀| (the equality-constrained
+/// minimiser) in `reconstruct::qp`: the dense solve's round-off is ~1e-14 relative; what is
+/// below is clipped to 0 at the end, so τ_n ≤ 0 still holds exactly.
+pub const PATCH_QP_FEASIBILITY: f64 = 1e-12;
+
+/// Weight of the equality rows, relative to max M_ii, when bounds and equalities are
+/// incompatible and the patch QP is re-solved with the equalities as a penalty
+/// (`reconstruct::qp`): large enough that the rows hold in the least-squares sense to ~1e-6 of
+/// what the bounds allow, small enough that M + ρQᵀQ keeps ~8 digits in its Cholesky.
+pub const PATCH_QP_PENALTY: f64 = 1e6;
+
+/// Diagonal shift, relative to the largest diagonal entry, first tried when round-off makes a
+/// patch matrix's Cholesky fail (`reconstruct::qp`; then ×100 up to three more times): the patch
+/// matrices are positive definite in exact arithmetic, so only round-off is to be absorbed.
+pub const PATCH_QP_REGULARISATION: f64 = 1e-12;
 
 /// A patch's equality constraints count as met when every row's residual is below this
 /// fraction of the row's scale Σ|B_kj x_j| + |d_k|: round-off of the dense solve is ~1e-13,

@@ -263,9 +263,6 @@ pub fn bound(
                 }
             }
             c.local = c.ps2 + (c.osc + c.asym).powi(2) / c_min;
-            if std::env::var("FOSLS_DBG").is_ok() && !c.symmetrised {
-                eprintln!("cell {t} shape {sh:?} mean_as {:.3e} asym {:.3e}", c.mean_as, c.asym);
-            }
             c
         })
         .collect();
@@ -307,7 +304,7 @@ pub fn bound(
         ));
     }
     let curved = mesh.shape.contains(&crate::geometry::Shape::Curved);
-    if curved && osc > 0.0 {
+    if curved && osc > ADMISSIBLE_RELATIVE * (2.0 * energy).sqrt() {
         failed.push(
             "curved cells: Payne–Weinberger's h_T/π is proven for convex cells; the \
              oscillation term uses it on curved cells"

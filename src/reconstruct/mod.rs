@@ -8,6 +8,7 @@ pub mod flow;
 pub mod nodal;
 pub mod patch;
 pub mod projection;
+pub mod qp;
 pub mod stress;
 pub mod submesh;
 pub mod symmetric;

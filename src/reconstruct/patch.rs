@@ -25,14 +25,12 @@
 //! quadratic flux (non-positive Bernstein coefficients ⇒ non-positive on the whole edge); on
 //! RT_1 the Bernstein coefficients are the end values.
 //!
-//! Every patch is an independent dense QP (a few dozen to ~150 unknowns), solved by a
-//! primal–dual active set on the sign-constrained variables, with the equality constraints
-//! orthonormalised (modified Gram–Schmidt, dependent rows dropped) and eliminated through the
-//! Schur complement. Patches run in parallel (rayon); the result is summed in vertex order, so
+//! Every patch is an independent dense QP (a few dozen to ~150 unknowns), solved by
+//! [`qp::solve`]: the equality constraints orthonormalised once (modified Gram–Schmidt,
+//! dependent rows dropped) and eliminated through the Schur complement, then the
+//! Goldfarb–Idnani dual active-set method on the sign-constrained variables (finite). Patches run in parallel (rayon); the result is summed in vertex order, so
 //! it does not depend on the thread count.
 
-use faer::prelude::Solve;
-use faer::{Mat, Side};
 use rayon::prelude::*;
 
 use super::flow;
@@ -44,9 +42,10 @@ use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
-    EDGE_DEGREE, FLOW_PASSES, MIN_CONE_FRICTION, PATCH_ACTIVE_SET_ITERATIONS, PATCH_DEFECT_RELATIVE,
-    PATCH_DEPENDENT_ROW,
+    EDGE_DEGREE, FLOW_PASSES, MIN_CONE_FRICTION, PATCH_DEFECT_RELATIVE, PATCH_DEPENDENT_ROW,
 };
+
+use super::qp;
 
 /// What the patch reconstruction reports besides the stress.
 #[derive(Clone, Debug, Default)]
@@ -59,7 +58,8 @@ pub struct PatchInfo {
     /// Patches whose active set did not settle within the cap.
     pub unsettled: usize,
     /// Patches whose equality constraints could not be met (u_h is not a Galerkin solution of
-    /// this problem there), and the largest relative defect.
+    /// this problem there, or they are incompatible with the contact sign constraints), and the
+    /// largest relative defect.
     pub incompatible: usize,
     pub max_defect: f64,
     /// Whether ∫_T as σ_h = 0 was imposed (P2 displacements).
@@ -170,7 +170,7 @@ pub fn reconstruct(
             fill[v as usize] += 1;
         }
     }
-    let weak_symmetry = std::env::var("FOSLS_P1_NOSYM").is_err() || mesh.degree >= 2;
+    let weak_symmetry = mesh.degree >= 2;
     let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
     // Rotation moments about one point for all patches (the flows compare them).
     let origin = {
@@ -219,7 +219,10 @@ pub fn reconstruct(
     while passes < FLOW_PASSES
         && outs
             .iter()
-            .any(|o| o.defect > PATCH_DEFECT_RELATIVE && o.cannot_take != [[0.0; 3]; 3])
+            .any(|o| {
+                (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible)
+                    && o.cannot_take != [[0.0; 3]; 3]
+            })
     {
         let mut d = vec![[0.0; 3]; npts];
         let mut q = vec![[[0.0; 3]; 3]; npts];
@@ -258,13 +261,6 @@ pub fn reconstruct(
         passes += 1;
     }
     let balanced = passes > 0;
-    if std::env::var("FOSLS_DBG").is_ok() {
-        for (o, &v) in outs.iter().zip(&vertices) {
-            if o.defect > PATCH_DEFECT_RELATIVE {
-                eprintln!("v {v} x {:?} q0 {:?} defect {:.2e} e {:?} settled {} n {}", mesh.points[v], o.cannot_take[0], o.defect, o.balance, o.settled, o.unknowns);
-            }
-        }
-    }
     let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
     let mut info = PatchInfo {
         patches: outs.len(),
@@ -283,7 +279,7 @@ pub fn reconstruct(
         info.max_unknowns = info.max_unknowns.max(o.unknowns);
         info.active += o.active;
         info.unsettled += usize::from(!o.settled);
-        if o.defect > PATCH_DEFECT_RELATIVE {
+        if o.defect > PATCH_DEFECT_RELATIVE || !o.feasible {
             info.incompatible += 1;
         }
         info.max_defect = info.max_defect.max(o.defect);
@@ -304,6 +300,7 @@ struct PatchOut {
     unknowns: usize,
     active: usize,
     settled: bool,
+    feasible: bool,
     defect: f64,
     /// Moments of the patch load against e_x, e_y and (x − x₀)^⊥/L (flow.rs's d_a).
     balance: [f64; 3],
@@ -531,7 +528,9 @@ fn solve_patch(
     let nq = (k + 1) * (k + 2) / 2;
     let mut m = vec![0.0; nvar * nvar];
     let mut bvec = vec![0.0; nvar];
-    let mut rows: Vec<(Vec<f64>, f64)> = Vec::new();
+    // Equality rows B (flat, row-major, nvar columns) and their right-hand sides d.
+    let mut rows: Vec<f64> = Vec::new();
+    let mut rhs: Vec<f64> = Vec::new();
     let f_expr = scene.body_force.as_ref();
     let nl = 2 * nloc;
     let mut locals: Vec<Vec<Lin>> = Vec::with_capacity(cells.len());
@@ -700,7 +699,7 @@ fn solve_patch(
             let (p0, p1, p2) = (x[0], x[1], x[2]);
             let (dx1, dx2) = ([p1[0] - p0[0], p1[1] - p0[1]], [p2[0] - p0[0], p2[1] - p0[1]]);
             rigid.push((
-                rows.len(),
+                rhs.len(),
                 [
                     [[1.0, 0.0, 0.0], [0.0; 3]],
                     [[0.0; 3], [1.0, 0.0, 0.0]],
@@ -711,9 +710,11 @@ fn solve_patch(
                 ],
             ));
         }
-        let mut push_row = |g: &[f64], rhs: f64| {
-            let mut row = vec![0.0; nvar];
-            let mut r = rhs;
+        let mut push_row = |g: &[f64], d: f64| {
+            let start = rows.len();
+            rows.resize(start + nvar, 0.0);
+            let row = &mut rows[start..];
+            let mut r = d;
             for a in 0..nl {
                 if g[a] == 0.0 {
                     continue;
@@ -723,7 +724,7 @@ fn solve_patch(
                 }
                 r -= g[a] * map[a].c;
             }
-            rows.push((row, r));
+            rhs.push(r);
         };
         for q in 0..2 * nq {
             push_row(&drow[q], drhs[q]);
@@ -733,18 +734,27 @@ fn solve_patch(
         }
         locals.push(map);
     }
+    // The contact equalities come last: relaxed first if the patch problem is infeasible.
+    let hard_rows = rhs.len();
     for &z in &zero_vars {
-        let mut row = vec![0.0; nvar];
-        row[z] = 1.0;
-        rows.push((row, 0.0));
+        let start = rows.len();
+        rows.resize(start + nvar, 0.0);
+        rows[start + z] = 1.0;
+        rhs.push(0.0);
     }
-    let (x, active, settled, defect) = solve_qp(nvar, &m, &bvec, &rows, &bounded);
+    let qp::QpResult {
+        x,
+        active,
+        settled,
+        feasible,
+        defect,
+    } = qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded);
     // The rigid-motion moments of the constraint residual (flow.rs's e_a): with the rows
     // (div τ − target, q)_T and ∫_T as τ, e_i = ∫(target − div τ)·ρ_i, plus ∫ as τ/L for the
     // rotation (the divergence theorem: ∫ div τ·ρ₃ = ∫_∂ τn·ρ₃ + ∫ as τ).
     let residual = |k: usize| -> f64 {
-        let (row, d) = &rows[k];
-        row.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>() - d
+        let row = &rows[k * nvar..(k + 1) * nvar];
+        row.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>() - rhs[k]
     };
     let mut balance = [0.0; 3];
     for &(start, coef) in &rigid {
@@ -780,6 +790,7 @@ fn solve_patch(
         unknowns: nvar,
         active,
         settled,
+        feasible,
         defect,
         balance,
         cannot_take: if dirichlet {
@@ -797,147 +808,6 @@ fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 }
 
-/// min ½xᵀMx − bᵀx s.t. Bx = d (rows), x_i ≤ 0 for i ∈ `bounded` (M: lower triangle used,
-/// dense row-major n × n). Returns x, the active count, whether the active set settled, and the
-/// relative defect max_k |B_k x − d_k| / max_k (Σ_j |B_kj x_j| + |d_k|).
-fn solve_qp(
-    n: usize,
-    m: &[f64],
-    b: &[f64],
-    rows: &[(Vec<f64>, f64)],
-    bounded: &[usize],
-) -> (Vec<f64>, usize, bool, f64) {
-    let mut active = vec![false; n];
-    let mut x = vec![0.0; n];
-    let mut settled = false;
-    for _ in 0..PATCH_ACTIVE_SET_ITERATIONS {
-        let free: Vec<usize> = (0..n).filter(|&i| !active[i]).collect();
-        let (xf, lambda) = solve_equality(n, m, b, rows, &free);
-        x = xf;
-        // ν = b − Mx − Bᵀλ at the active variables.
-        let mut next = active.clone();
-        for &i in bounded {
-            let mut mx = 0.0;
-            for jj in 0..n {
-                let mv = if jj <= i {
-                    m[i * n + jj]
-                } else {
-                    m[jj * n + i]
-                };
-                mx += mv * x[jj];
-            }
-            let btl: f64 = rows.iter().zip(&lambda).map(|((r, _), l)| r[i] * l).sum();
-            let nu = if active[i] { b[i] - mx - btl } else { 0.0 };
-            let cdiag = m[i * n + i].abs().max(1e-300);
-            next[i] = nu + cdiag * x[i] > 0.0;
-        }
-        if next == active {
-            settled = true;
-            break;
-        }
-        active = next;
-    }
-    // Residuals relative to the largest row scale Σ_j |B_kj x_j| + |d_k| of the patch (a row
-    // whose own terms are round-off, e.g. a fixed tangential flux, is measured against that).
-    let (mut worst, mut scale) = (0.0f64, 0.0f64);
-    for (r, d) in rows {
-        let bx: f64 = r.iter().zip(&x).map(|(a, b)| a * b).sum();
-        worst = worst.max((bx - d).abs());
-        scale = scale.max(r.iter().zip(&x).map(|(a, b)| (a * b).abs()).sum::<f64>() + d.abs());
-    }
-    let defect = if scale > 0.0 { worst / scale } else { 0.0 };
-    (x, active.iter().filter(|&&a| a).count(), settled, defect)
-}
-
-/// The equality-constrained minimiser over the `free` variables (others 0) and the multipliers
-/// of the original rows.
-fn solve_equality(
-    n: usize,
-    m: &[f64],
-    b: &[f64],
-    rows: &[(Vec<f64>, f64)],
-    free: &[usize],
-) -> (Vec<f64>, Vec<f64>) {
-    let nf = free.len();
-    let mut x = vec![0.0; n];
-    if nf == 0 {
-        return (x, vec![0.0; rows.len()]);
-    }
-    // Modified Gram–Schmidt on the rows restricted to `free`, twice per row; q_j = Σ T_jk B_k.
-    let nr = rows.len();
-    let mut q: Vec<Vec<f64>> = Vec::new();
-    let mut tq: Vec<Vec<f64>> = Vec::new();
-    let mut dq: Vec<f64> = Vec::new();
-    for (kr, (row, _)) in rows.iter().enumerate() {
-        let mut v: Vec<f64> = free.iter().map(|&i| row[i]).collect();
-        let norm0 = v.iter().map(|a| a * a).sum::<f64>().sqrt();
-        if norm0 == 0.0 {
-            continue;
-        }
-        let mut c = vec![0.0; nr];
-        c[kr] = 1.0;
-        for _ in 0..2 {
-            for (qj, tj) in q.iter().zip(&tq) {
-                let a: f64 = qj.iter().zip(&v).map(|(p, w)| p * w).sum();
-                for (vi, qi) in v.iter_mut().zip(qj) {
-                    *vi -= a * qi;
-                }
-                for (ci, ti) in c.iter_mut().zip(tj) {
-                    *ci -= a * ti;
-                }
-            }
-        }
-        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
-        if norm <= PATCH_DEPENDENT_ROW * norm0 {
-            continue;
-        }
-        let s = 1.0 / norm;
-        v.iter_mut().for_each(|a| *a *= s);
-        c.iter_mut().for_each(|a| *a *= s);
-        dq.push(c.iter().zip(rows).map(|(ci, (_, dk))| ci * dk).sum());
-        q.push(v);
-        tq.push(c);
-    }
-    let nqr = q.len();
-    let mf = Mat::<f64>::from_fn(nf, nf, |i, j| {
-        let (a, c) = (free[i], free[j]);
-        if c <= a { m[a * n + c] } else { m[c * n + a] }
-    });
-    let Ok(llt) = mf.llt(Side::Lower) else {
-        return (x, vec![0.0; rows.len()]);
-    };
-    let bf = Mat::<f64>::from_fn(nf, 1, |i, _| b[free[i]]);
-    let mb = llt.solve(&bf);
-    let mut xf: Vec<f64> = (0..nf).map(|i| mb[(i, 0)]).collect();
-    let mut lambda_orig = vec![0.0; nr];
-    if nqr > 0 {
-        let qt = Mat::<f64>::from_fn(nf, nqr, |i, j| q[j][i]);
-        let y = llt.solve(&qt); // M⁻¹Qᵀ
-        let s = Mat::<f64>::from_fn(nqr, nqr, |i, j| {
-            (0..nf).map(|kk| q[i][kk] * y[(kk, j)]).sum()
-        });
-        let rhs = Mat::<f64>::from_fn(nqr, 1, |i, _| {
-            (0..nf).map(|kk| q[i][kk] * xf[kk]).sum::<f64>() - dq[i]
-        });
-        let lam = match s.llt(Side::Lower) {
-            Ok(sl) => sl.solve(&rhs),
-            Err(_) => Mat::<f64>::zeros(nqr, 1),
-        };
-        for (kk, xv) in xf.iter_mut().enumerate() {
-            *xv -= (0..nqr).map(|j| y[(kk, j)] * lam[(j, 0)]).sum::<f64>();
-        }
-        for (j, tj) in tq.iter().enumerate() {
-            for (lo, t) in lambda_orig.iter_mut().zip(tj) {
-                *lo += t * lam[(j, 0)];
-            }
-        }
-    }
-    for (i, &fi) in free.iter().enumerate() {
-        x[fi] = xf[i];
-    }
-    (x, lambda_orig)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -949,31 +819,5 @@ mod tests {
         assert!((p[0] - 3.0).abs() < 1e-14 && (p[1] - 1.0).abs() < 1e-14);
         let q = project_points(1, &[0.0, 1.0], |s| s * s);
         assert!((q[0] + 1.0 / 6.0).abs() < 1e-14 && (q[1] - 5.0 / 6.0).abs() < 1e-14);
-    }
-
-    #[test]
-    fn qp_with_a_bound_and_an_equality() {
-        // min ½(x₀² + x₁²) − (x₀ + x₁) s.t. x₀ − x₁ = 0.5, x₀ ≤ 0: x = (0, −0.5) by hand.
-        let m = vec![1.0, 0.0, 0.0, 1.0];
-        let b = vec![1.0, 1.0];
-        let rows = vec![(vec![1.0, -1.0], 0.5)];
-        let (x, active, settled, defect) = solve_qp(2, &m, &b, &rows, &[0]);
-        assert!(settled && active == 1 && defect < 1e-14);
-        assert!(x[0].abs() < 1e-14 && (x[1] + 0.5).abs() < 1e-14, "{x:?}");
-        // Without the bound: x₀ = 1.25, x₁ = 0.75.
-        let (x, ..) = solve_qp(2, &m, &b, &rows, &[]);
-        assert!((x[0] - 1.25).abs() < 1e-14 && (x[1] - 0.75).abs() < 1e-14);
-    }
-
-    #[test]
-    fn dependent_rows_are_dropped_and_inconsistent_ones_reported() {
-        let m = vec![1.0, 0.0, 0.0, 1.0];
-        let b = vec![0.0, 0.0];
-        let rows = vec![(vec![1.0, 1.0], 1.0), (vec![2.0, 2.0], 2.0)];
-        let (x, _, _, defect) = solve_qp(2, &m, &b, &rows, &[]);
-        assert!((x[0] - 0.5).abs() < 1e-14 && defect < 1e-14);
-        let bad = vec![(vec![1.0, 1.0], 1.0), (vec![2.0, 2.0], 3.0)];
-        let (_, _, _, defect) = solve_qp(2, &m, &b, &bad, &[]);
-        assert!(defect > 0.1, "{defect}");
     }
 }
