@@ -208,3 +208,9 @@ pub const FLOW_RELATIVE: f64 = 1e-14;
 /// Rounds of balancing flows and re-solved patches (`reconstruct::patch`): one round moves the
 /// load defects; a patch whose active set then changes leaves a smaller residual for the next.
 pub const FLOW_PASSES: usize = 3;
+
+/// Quadrature degree for a body force that is not constant, in the patch loads
+/// (`reconstruct::patch`) and in the bound's moment and oscillation terms (`estimate::bound`):
+/// the SAME rule in both, so that the rigid-motion moments of div σ_h + f the bound checks are
+/// the ones the patches balanced (a kinked f integrated by two rules differs by ~1e-3).
+pub const LOAD_DEGREE: usize = 12;

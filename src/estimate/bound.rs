@@ -32,7 +32,9 @@ use crate::geometry::values::{rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::triangle_rule_cached;
 use crate::reconstruct::symmetric;
-use crate::tolerance::{ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE, SYMMETRIC_RESIDUAL};
+use crate::tolerance::{
+    ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE, LOAD_DEGREE, SYMMETRIC_RESIDUAL,
+};
 
 /// The terms of the bound (units of |||·|||, i.e. √(2 × energy); `complementarity` in energy).
 #[derive(Clone, Debug, Default, Serialize, serde::Deserialize, PartialEq)]
@@ -160,7 +162,7 @@ pub fn bound(
             let x = mesh.coords(t);
             let nodes = mesh.nodes(t);
             let sh = mesh.shape[t];
-            let deg = if f_poly { 8 } else { 12 };
+            let deg = if f_poly { 8 } else { LOAD_DEGREE };
             let rule = triangle_rule_cached(rule_degree(sh, deg));
             let verts = [x[0], x[1], x[2]];
             let h = crate::geometry::diameter(fam, &x[..fam.nodes()]);

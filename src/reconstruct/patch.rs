@@ -42,7 +42,8 @@ use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
-    EDGE_DEGREE, FLOW_PASSES, MIN_CONE_FRICTION, PATCH_DEFECT_RELATIVE, PATCH_DEPENDENT_ROW,
+    EDGE_DEGREE, FLOW_PASSES, LOAD_DEGREE, MIN_CONE_FRICTION, PATCH_DEFECT_RELATIVE,
+    PATCH_DEPENDENT_ROW,
 };
 
 use super::qp;
@@ -217,12 +218,9 @@ pub fn reconstruct(
     let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
     let mut passes = 0;
     while passes < FLOW_PASSES
-        && outs
-            .iter()
-            .any(|o| {
-                (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible)
-                    && o.cannot_take != [[0.0; 3]; 3]
-            })
+        && outs.iter().any(|o| {
+            (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible) && o.cannot_take != [[0.0; 3]; 3]
+        })
     {
         let mut d = vec![[0.0; 3]; npts];
         let mut q = vec![[[0.0; 3]; 3]; npts];
@@ -370,8 +368,8 @@ fn edge_load(
     }
     let c0 = y[0] / area;
     let c1 = y[1] / area;
-    let c2 = (y[2] + area * (centre[1] - origin[1]) * c0 - area * (centre[0] - origin[0]) * c1)
-        / second;
+    let c2 =
+        (y[2] + area * (centre[1] - origin[1]) * c0 - area * (centre[0] - origin[0]) * c1) / second;
     Some(cells.iter().map(|&t| (t, [c0, c1, c2], centre)).collect())
 }
 
@@ -566,7 +564,7 @@ fn solve_patch(
         let p = mesh.degree;
         let mut deg = (2 * k + 2).max(k + p + 1).max(2 * p);
         if f_expr.is_some_and(|f| !(f[0].is_constant() && f[1].is_constant())) {
-            deg = deg.max(10);
+            deg = deg.max(LOAD_DEGREE);
         }
         let rule = triangle_rule_cached(rule_degree(sh, deg));
         let mut mloc = vec![0.0; nl * nl];
@@ -697,14 +695,21 @@ fn solve_patch(
         }
         {
             let (p0, p1, p2) = (x[0], x[1], x[2]);
-            let (dx1, dx2) = ([p1[0] - p0[0], p1[1] - p0[1]], [p2[0] - p0[0], p2[1] - p0[1]]);
+            let (dx1, dx2) = (
+                [p1[0] - p0[0], p1[1] - p0[1]],
+                [p2[0] - p0[0], p2[1] - p0[1]],
+            );
             rigid.push((
                 rhs.len(),
                 [
                     [[1.0, 0.0, 0.0], [0.0; 3]],
                     [[0.0; 3], [1.0, 0.0, 0.0]],
                     [
-                        [-(p0[1] - x0[1]) / length, -dx1[1] / length, -dx2[1] / length],
+                        [
+                            -(p0[1] - x0[1]) / length,
+                            -dx1[1] / length,
+                            -dx2[1] / length,
+                        ],
                         [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
                     ],
                 ],
@@ -752,9 +757,15 @@ fn solve_patch(
     // The rigid-motion moments of the constraint residual (flow.rs's e_a): with the rows
     // (div τ − target, q)_T and ∫_T as τ, e_i = ∫(target − div τ)·ρ_i, plus ∫ as τ/L for the
     // rotation (the divergence theorem: ∫ div τ·ρ₃ = ∫_∂ τn·ρ₃ + ∫ as τ).
+    // Variables that must vanish (frictionless tangential fluxes, infinite gaps) count at 0:
+    // a fallback that relaxed them carries illegal moments, which are a defect too.
+    let mut legal = x.clone();
+    for &z in &zero_vars {
+        legal[z] = 0.0;
+    }
     let residual = |k: usize| -> f64 {
         let row = &rows[k * nvar..(k + 1) * nvar];
-        row.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>() - rhs[k]
+        row.iter().zip(&legal).map(|(a, b)| a * b).sum::<f64>() - rhs[k]
     };
     let mut balance = [0.0; 3];
     for &(start, coef) in &rigid {

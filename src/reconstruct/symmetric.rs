@@ -202,7 +202,12 @@ pub fn correct(
             let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
             let w = wq * split.det[i];
             let (tau, ce) = field(split.parent_xi(i, l));
-            let base = [tau[0] - ce[0], tau[1] - ce[1], tau[2] - ce[2], tau[3] - ce[3]];
+            let base = [
+                tau[0] - ce[0],
+                tau[1] - ce[1],
+                tau[2] - ce[2],
+                tau[3] - ce[3],
+            ];
             let abase = el.compliance(base);
             let g = tau[1] - tau[2];
             asym_before += w * g * g;
@@ -377,7 +382,12 @@ mod tests {
             (s, s)
         };
         let c = correct(tri(), 3, &EL, field);
-        assert!(c.ps2 < 1e-28 && c.asym_after < 1e-14, "{} {}", c.ps2, c.asym_after);
+        assert!(
+            c.ps2 < 1e-28 && c.asym_after < 1e-14,
+            "{} {}",
+            c.ps2,
+            c.asym_after
+        );
     }
 
     #[test]
@@ -390,12 +400,17 @@ mod tests {
         let c = correct(tri(), 3, &EL, field);
         let rule = triangle_rule_cached(8);
         let v = tri();
-        let det = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+        let det =
+            (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
         let mut before = 0.0;
         for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
             let (s, ce) = field(xi);
             before += w * det * ps_density(&EL, s, ce);
         }
-        assert!(c.ps2 <= before * (1.0 + 1e-12) && c.ps2 > 0.0, "{} vs {before}", c.ps2);
+        assert!(
+            c.ps2 <= before * (1.0 + 1e-12) && c.ps2 > 0.0,
+            "{} vs {before}",
+            c.ps2
+        );
     }
 }
