@@ -105,12 +105,9 @@ pub fn potentials(edges: &[[u32; 2]], q: &[M3], d: &[[f64; 3]]) -> Vec<[f64; 3]>
         let mut taken: Vec<[f64; 3]> = Vec::new();
         while i < members.len() {
             let v = members[i] as usize;
-            // I − Q_a spans what patch a takes.
-            for r in 0..3 {
-                let mut col = [0.0; 3];
-                for c in 0..3 {
-                    col[c] = if r == c { 1.0 } else { 0.0 } - q[v][c][r];
-                }
+            // I − Q_a spans what patch a takes (Q_a is symmetric: its rows are its columns).
+            for (r, row) in q[v].iter().enumerate() {
+                let col: [f64; 3] = std::array::from_fn(|c| f64::from(u8::from(r == c)) - row[c]);
                 if dot(col, col) > 1e-24 {
                     taken.push(col);
                 }
@@ -171,14 +168,17 @@ pub fn potentials(edges: &[[u32; 2]], q: &[M3], d: &[[f64; 3]]) -> Vec<[f64; 3]>
     let diag: Vec<f64> = (0..n)
         .map(|v| (start[v + 1] - start[v]).max(1) as f64)
         .collect();
-    let p = cg(&apply, &rhs, &diag, &q, &remove_kernel);
+    let p = cg(&apply, &rhs, &diag, q, &remove_kernel);
     (0..n).map(|v| mul(&q[v], p[v])).collect()
 }
+
+/// y = A x on per-vertex 3-vectors.
+type Operator<'a> = dyn Fn(&[[f64; 3]], &mut [[f64; 3]]) + 'a;
 
 /// Preconditioned conjugate gradients for the symmetric positive semi-definite `apply`, the
 /// iterates kept in the range of Q and off the kernel.
 fn cg(
-    apply: &dyn Fn(&[[f64; 3]], &mut [[f64; 3]]),
+    apply: &Operator<'_>,
     rhs: &[[f64; 3]],
     diag: &[f64],
     q: &[M3],

@@ -327,17 +327,15 @@ struct Extra {
     centre: [f64; 2],
 }
 
+/// One cell's part of an edge load: the cell, (c₀, c₁, c₂) and the centre x̄.
+type EdgeLoad = (u32, [f64; 3], [f64; 2]);
+
 /// The load h_E on the cells of an edge with rigid-motion moments y = (∫h·e_x, ∫h·e_y,
 /// ∫h·(x − x₀)^⊥): h = c₀e_x + c₁e_y + c₂(x − x̄)^⊥ with x̄ the centroid of the cells, so
 /// c₀ = y₀/|ω|, c₁ = y₁/|ω|, c₂ = (y₂ + |ω|(ȳ − y₀')c₀ − |ω|(x̄ − x₀')c₁)/∫|x − x̄|² (x₀ =
 /// (x₀', y₀')). Straight-cell quadrature of the area and second moment (the patch rows use the
 /// same points, so the moments the patches see are these up to round-off).
-fn edge_load(
-    ctx: &Context,
-    cells: &[u32],
-    y: [f64; 3],
-    origin: [f64; 2],
-) -> Option<Vec<(u32, [f64; 3], [f64; 2])>> {
+fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Option<Vec<EdgeLoad>> {
     let mesh = ctx.mesh;
     let rule = triangle_rule_cached(4);
     let (mut area, mut first) = (0.0, [0.0; 2]);
@@ -769,11 +767,11 @@ fn solve_patch(
     };
     let mut balance = [0.0; 3];
     for &(start, coef) in &rigid {
-        for (i, bi) in balance.iter_mut().enumerate() {
-            for r in 0..2 {
-                for q in 0..3 {
-                    if coef[i][r][q] != 0.0 {
-                        *bi -= coef[i][r][q] * residual(start + r * nq + q);
+        for (bi, ci) in balance.iter_mut().zip(&coef) {
+            for (r, cr) in ci.iter().enumerate() {
+                for (q, &c) in cr.iter().enumerate() {
+                    if c != 0.0 {
+                        *bi -= c * residual(start + r * nq + q);
                     }
                 }
             }
