@@ -188,7 +188,7 @@ pub const PATCH_DEPENDENT_ROW: f64 = 1e-10;
 /// meets them to ~1e-13, a non-equilibrated stress misses them by O(1).
 pub const BOUND_MOMENT_RELATIVE: f64 = 1e-8;
 
-/// Singular values of the Alfeld divergence matrix (`reconstruct::symmetric`) below this
+/// Singular values of the Alfeld divergence matrix (`estimate::symmetric`) below this
 /// fraction of the largest are its kernel: the matrix has exactly one zero singular value (the
 /// mean) up to round-off ~1e-15, and its smallest non-zero one is above 1e-3 of the largest on
 /// cells with angles down to 1° (tested), so the cut separates the two by orders of magnitude.

@@ -31,7 +31,7 @@ use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::triangle_rule_cached;
-use crate::reconstruct::symmetric;
+use super::symmetric;
 use crate::tolerance::{
     ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE, LOAD_DEGREE, SYMMETRIC_RESIDUAL,
 };
@@ -52,7 +52,7 @@ pub struct BoundTerms {
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
-    /// (`reconstruct::symmetric`, design §5.11); their asymmetry term is 0 and their η_PS is
+    /// (`estimate::symmetric`, design §5.11); their asymmetry term is 0 and their η_PS is
     /// that of the corrected stress.
     #[serde(default)]
     pub symmetrised_cells: usize,

@@ -195,6 +195,7 @@ pub mod bound;
 pub mod boundary;
 pub mod interior;
 pub mod reaction;
+pub mod symmetric;
 
 use crate::problem::Context;
 

@@ -11,7 +11,6 @@ pub mod projection;
 pub mod qp;
 pub mod stress;
 pub mod submesh;
-pub mod symmetric;
 
 /// The QP solver, a leaf of its own ([`crate::solve`]).
 pub use crate::solve;
