@@ -233,7 +233,12 @@ pub fn correct(
             let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
             let w = wq * split.det[i];
             let (tau, ce) = field(split.parent_xi(i, l));
-            let base = [tau[0] - ce[0], tau[1] - ce[1], tau[2] - ce[2], tau[3] - ce[3]];
+            let base = [
+                tau[0] - ce[0],
+                tau[1] - ce[1],
+                tau[2] - ce[2],
+                tau[3] - ce[3],
+            ];
             let abase = el.compliance(base);
             let g = tau[1] - tau[2];
             asym_before += w * g * g;
@@ -302,7 +307,6 @@ pub fn correct(
     }
 }
 
-
 /// The correction on a curved (isoparametric P2) triangle with nodes `nodes` (VTK order,
 /// counter-clockwise) and polynomial degree `m` ≥ 2, through the contravariant Piola map
 /// φ = J φ̂ / det J of a φ̂ ∈ V_m(T̂) on the Alfeld split of the REFERENCE triangle.
@@ -350,7 +354,12 @@ pub fn correct_curved(
             let wr = wq * split.det[i];
             let w = wr * jac.det;
             let (tau, ce) = field(xp);
-            let base = [tau[0] - ce[0], tau[1] - ce[1], tau[2] - ce[2], tau[3] - ce[3]];
+            let base = [
+                tau[0] - ce[0],
+                tau[1] - ce[1],
+                tau[2] - ce[2],
+                tau[3] - ce[3],
+            ];
             let abase = el.compliance(base);
             let g = tau[1] - tau[2];
             asym_before += w * g * g;
@@ -430,7 +439,13 @@ pub const fn curved_rule_degree(m: usize) -> usize {
 /// ∂_c (J_as N / det J) = (∂_c J_as N + J_as ∂_c N)/det J − J_as N ∂_c det J / det J²,
 /// ∂_c det J = det J tr(J⁻¹ ∂_c J), then ∇_x = ∇_ξ J⁻¹.
 #[inline]
-fn piola_gradient(jac: &Jacobian, dj: &[[[f64; 2]; 2]; 2], s: usize, v: f64, g: [f64; 2]) -> [[f64; 2]; 2] {
+fn piola_gradient(
+    jac: &Jacobian,
+    dj: &[[[f64; 2]; 2]; 2],
+    s: usize,
+    v: f64,
+    g: [f64; 2],
+) -> [[f64; 2]; 2] {
     let (jm, ji, det) = (&jac.matrix, &jac.inverse, jac.det);
     let mut dref = [[0.0; 2]; 2];
     for c in 0..2 {
@@ -583,7 +598,12 @@ mod tests {
             (s, s)
         };
         let c = correct(tri(), 3, &EL, field);
-        assert!(c.ps2 < 1e-28 && c.asym_after < 1e-14, "{} {}", c.ps2, c.asym_after);
+        assert!(
+            c.ps2 < 1e-28 && c.asym_after < 1e-14,
+            "{} {}",
+            c.ps2,
+            c.asym_after
+        );
     }
 
     #[test]
@@ -596,13 +616,18 @@ mod tests {
         let c = correct(tri(), 3, &EL, field);
         let rule = triangle_rule_cached(8);
         let v = tri();
-        let det = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+        let det =
+            (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
         let mut before = 0.0;
         for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
             let (s, ce) = field(xi);
             before += w * det * ps_density(&EL, s, ce);
         }
-        assert!(c.ps2 <= before * (1.0 + 1e-12) && c.ps2 > 0.0, "{} vs {before}", c.ps2);
+        assert!(
+            c.ps2 <= before * (1.0 + 1e-12) && c.ps2 > 0.0,
+            "{} vs {before}",
+            c.ps2
+        );
     }
 }
 
@@ -635,7 +660,14 @@ mod curved_tests {
     fn straight6() -> [[f64; 2]; 6] {
         let v = [[0.1, 0.2], [1.3, 0.05], [0.4, 0.9]];
         let mid = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-        [v[0], v[1], v[2], mid(v[0], v[1]), mid(v[1], v[2]), mid(v[2], v[0])]
+        [
+            v[0],
+            v[1],
+            v[2],
+            mid(v[0], v[1]),
+            mid(v[1], v[2]),
+            mid(v[2], v[0]),
+        ]
     }
 
     /// τ = Σ c[r][i] (Piola image of the i-th RT basis field) on `nodes`.
@@ -670,7 +702,9 @@ mod curved_tests {
     fn mean_free_rt(order: RtOrder, nodes: &[[f64; 2]; 6]) -> [[f64; 15]; 2] {
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         };
         let mut c1 = [[0.0; 15]; 2];
@@ -705,7 +739,13 @@ mod curved_tests {
         let l = [lam[i] - lo, lam[(i + 1) % 3] - lo, 3.0 * lo];
         let (mut vals, mut grads, mut curls) = (Vec::new(), Vec::new(), Vec::new());
         split.basis(i, l, &mut vals, &mut grads);
-        piola_curls(&map.jacobian(xi), &map.jacobian_derivatives(), &vals, &grads, &mut curls);
+        piola_curls(
+            &map.jacobian(xi),
+            &map.jacobian_derivatives(),
+            &vals,
+            &grads,
+            &mut curls,
+        );
         let mut out = [0.0; 4];
         for (&na, c) in split.node[i].iter().zip(&curls) {
             let Some(na) = na else { continue };
@@ -764,14 +804,20 @@ mod curved_tests {
                 let cp = curl_at(&nodes, m, &fix.phi, xi);
                 let before = (t[1] - t[2]).abs();
                 let after = (t[1] + cp[1] - t[2] - cp[2]).abs();
-                assert!(after < 1e-10 * before.max(1.0), "{order:?} {xi:?}: {before} → {after}");
+                assert!(
+                    after < 1e-10 * before.max(1.0),
+                    "{order:?} {xi:?}: {before} → {after}"
+                );
                 let ji = map.jacobian(xi).inverse;
                 let mut dc = [[0.0; 4]; 2];
                 for (k, dk) in dc.iter_mut().enumerate() {
                     let (mut p, mut q) = (xi, xi);
                     p[k] += h;
                     q[k] -= h;
-                    let (cp, cq) = (curl_at(&nodes, m, &fix.phi, p), curl_at(&nodes, m, &fix.phi, q));
+                    let (cp, cq) = (
+                        curl_at(&nodes, m, &fix.phi, p),
+                        curl_at(&nodes, m, &fix.phi, q),
+                    );
                     for j in 0..4 {
                         dk[j] = (cp[j] - cq[j]) / (2.0 * h);
                     }
@@ -780,7 +826,10 @@ mod curved_tests {
                 let dx = |j: usize, e: usize| dc[0][j] * ji[0][e] + dc[1][j] * ji[1][e];
                 for r in 0..2 {
                     let div = dx(2 * r, 0) + dx(2 * r + 1, 1);
-                    assert!(div.abs() < 1e-5 * scale.max(1.0), "{order:?} {xi:?} div {div}");
+                    assert!(
+                        div.abs() < 1e-5 * scale.max(1.0),
+                        "{order:?} {xi:?} div {div}"
+                    );
                 }
             }
             // Curl φ · n = ∂_t φ = 0 on the three (curved) edges.
@@ -801,7 +850,10 @@ mod curved_tests {
                     let cp = curl_at(&nodes, m, &fix.phi, xi);
                     for r in 0..2 {
                         let cn = cp[2 * r] * n[0] + cp[2 * r + 1] * n[1];
-                        assert!(cn.abs() < 1e-11 * scale.max(1.0), "{order:?} edge {e} s {s}: {cn}");
+                        assert!(
+                            cn.abs() < 1e-11 * scale.max(1.0),
+                            "{order:?} edge {e} s {s}: {cn}"
+                        );
                     }
                 }
             }
@@ -826,7 +878,12 @@ mod curved_tests {
         let a = correct([nodes[0], nodes[1], nodes[2]], m, &EL, field);
         let b = correct_curved(nodes, m, &EL, field);
         assert_eq!(a.rank, b.rank);
-        assert!((a.ps2 - b.ps2).abs() < 1e-11 * a.ps2, "{} vs {}", a.ps2, b.ps2);
+        assert!(
+            (a.ps2 - b.ps2).abs() < 1e-11 * a.ps2,
+            "{} vs {}",
+            a.ps2,
+            b.ps2
+        );
         assert!((a.asym_before - b.asym_before).abs() < 1e-12 * a.asym_before);
         assert!(b.asym_after < 1e-12 * b.asym_before);
     }
