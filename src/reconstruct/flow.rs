@@ -185,7 +185,8 @@ fn cg(
     remove_kernel: &dyn Fn(&mut [[f64; 3]]),
 ) -> Vec<[f64; 3]> {
     let n = rhs.len();
-    let inner = |a: &[[f64; 3]], b: &[[f64; 3]]| a.iter().zip(b).map(|(x, y)| dot(*x, *y)).sum::<f64>();
+    let inner =
+        |a: &[[f64; 3]], b: &[[f64; 3]]| a.iter().zip(b).map(|(x, y)| dot(*x, *y)).sum::<f64>();
     let norm0 = inner(rhs, rhs).sqrt();
     let mut x = vec![[0.0; 3]; n];
     if norm0 == 0.0 {
@@ -246,7 +247,12 @@ mod tests {
         let edges = [[0, 1], [1, 2], [2, 3]];
         let id = complement(&[], 1e-10);
         let q = [id, id, id, [[0.0; 3]; 3]];
-        let d = [[1.0, 0.0, 2.0], [0.5, 0.0, 0.0], [-0.25, 1.0, 0.0], [9.0, 9.0, 9.0]];
+        let d = [
+            [1.0, 0.0, 2.0],
+            [0.5, 0.0, 0.0],
+            [-0.25, 1.0, 0.0],
+            [9.0, 9.0, 9.0],
+        ];
         let p = potentials(&edges, &q, &d);
         let flows: Vec<f64> = edges
             .iter()
@@ -264,7 +270,12 @@ mod tests {
     fn a_sink_free_cycle_is_balanced_when_the_defects_sum_to_zero() {
         let edges = [[0, 1], [1, 2], [2, 3], [3, 0], [0, 2]];
         let q = [complement(&[], 1e-10); 4];
-        let d = [[1.0, 0.0, 0.0], [-2.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 0.0, 0.0]];
+        let d = [
+            [1.0, 0.0, 0.0],
+            [-2.0, 0.0, 0.0],
+            [0.5, 0.0, 0.0],
+            [0.5, 0.0, 0.0],
+        ];
         let p = potentials(&edges, &q, &d);
         let mut lp = [0.0; 4];
         for &[a, b] in &edges {
@@ -282,7 +293,10 @@ mod tests {
         // 0 — 1(contact: takes e_y only): the x-defect of 0 cannot go anywhere (kernel), the
         // y-defect flows into 1; vertex 0 balanced in y exactly.
         let edges = [[0, 1]];
-        let q = [complement(&[], 1e-10), complement(&[[0.0, 1.0, 0.0]], 1e-10)];
+        let q = [
+            complement(&[], 1e-10),
+            complement(&[[0.0, 1.0, 0.0]], 1e-10),
+        ];
         let d = [[0.0, 2.0, 0.0], [0.0, 0.0, 0.0]];
         let p = potentials(&edges, &q, &d);
         let y = [p[0][1] - p[1][1], p[0][0] - p[1][0]];

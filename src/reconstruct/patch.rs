@@ -217,12 +217,9 @@ pub fn reconstruct(
     let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
     let mut passes = 0;
     while passes < FLOW_PASSES
-        && outs
-            .iter()
-            .any(|o| {
-                (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible)
-                    && o.cannot_take != [[0.0; 3]; 3]
-            })
+        && outs.iter().any(|o| {
+            (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible) && o.cannot_take != [[0.0; 3]; 3]
+        })
     {
         let mut d = vec![[0.0; 3]; npts];
         let mut q = vec![[[0.0; 3]; 3]; npts];
@@ -370,8 +367,8 @@ fn edge_load(
     }
     let c0 = y[0] / area;
     let c1 = y[1] / area;
-    let c2 = (y[2] + area * (centre[1] - origin[1]) * c0 - area * (centre[0] - origin[0]) * c1)
-        / second;
+    let c2 =
+        (y[2] + area * (centre[1] - origin[1]) * c0 - area * (centre[0] - origin[0]) * c1) / second;
     Some(cells.iter().map(|&t| (t, [c0, c1, c2], centre)).collect())
 }
 
@@ -697,14 +694,21 @@ fn solve_patch(
         }
         {
             let (p0, p1, p2) = (x[0], x[1], x[2]);
-            let (dx1, dx2) = ([p1[0] - p0[0], p1[1] - p0[1]], [p2[0] - p0[0], p2[1] - p0[1]]);
+            let (dx1, dx2) = (
+                [p1[0] - p0[0], p1[1] - p0[1]],
+                [p2[0] - p0[0], p2[1] - p0[1]],
+            );
             rigid.push((
                 rhs.len(),
                 [
                     [[1.0, 0.0, 0.0], [0.0; 3]],
                     [[0.0; 3], [1.0, 0.0, 0.0]],
                     [
-                        [-(p0[1] - x0[1]) / length, -dx1[1] / length, -dx2[1] / length],
+                        [
+                            -(p0[1] - x0[1]) / length,
+                            -dx1[1] / length,
+                            -dx2[1] / length,
+                        ],
                         [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
                     ],
                 ],
