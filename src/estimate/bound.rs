@@ -50,8 +50,8 @@ pub struct BoundTerms {
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
-    /// (`reconstruct::symmetric`, design §5.11); their asymmetry term is 0 and their η_PS is
-    /// that of the corrected stress.
+    /// (`reconstruct::symmetric`, design §5.11; straight and curved P2 triangles); their
+    /// asymmetry term is 0 and their η_PS is that of the corrected stress.
     #[serde(default)]
     pub symmetrised_cells: usize,
 }

@@ -205,7 +205,7 @@ impl QuadraticTriangle {
     }
 
     /// The constant derivatives of the Jacobian, `d[c][a][b]` = ∂J_ab/∂ξ_c = ∂²x_a/∂ξ_b∂ξ_c
-    /// (the map is quadratic, so J(ξ) = J(0) + Σ_c ξ_c d[c] exactly).
+    /// (the map is quadratic, so J(ξ) = J(0) + Σ_c ξ_c `d[c]` exactly).
     pub fn jacobian_derivatives(&self) -> [[[f64; 2]; 2]; 2] {
         let o = self.nodes[0];
         let mut d = [[[0.0; 2]; 2]; 2];

@@ -20,6 +20,11 @@
 //! Scott–Vogelius pair on Alfeld splits, Arnold–Qin 1992; Guzmán–Neilan 2018); the rank is
 //! checked numerically for every cell, and a failure is reported, not hidden.
 //!
+//! Curved (isoparametric P2) cells, [`correct_curved`]: the contravariant Piola image
+//! φ = J φ̂ / det J of φ̂ ∈ V_m(T̂) on the Alfeld split of the reference triangle keeps
+//! continuity and φ = 0 on ∂T, with div φ = div̂ φ̂ / det J; the constraint becomes
+//! div̂ φ̂ = (as τ ∘ F) det J, a polynomial of degree ≤ k + 2 for τ ∈ RT_k, so m = k + 3.
+//!
 //! The cost is one small dense problem per cell (20 unknowns for m = 3, 38 for m = 4): the
 //! constraints are eliminated through the SVD of the divergence matrix, the remaining
 //! freedom (the divergence-free part, which only lowers ‖τ* − Cε(v)‖_A) by a Cholesky solve.
