@@ -542,7 +542,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         // the stress moves on two Hertz fixtures (skfem P1 Coulomb −4.2 %, sfepy P2 +10 % of
         // 2a, against 3 % with the global one), so the switch waits for the zone to be read
         // from the displacement alone (issue 13, deliverable 3).
-        Source::Auto => false,        _ => false,
+        Source::Auto => false,
+        _ => false,
     };
     let patch_order = reconstruct::patch::order_for_degree(opts.degree.unwrap_or(data.mesh.degree));
     let mut patch_info = None;

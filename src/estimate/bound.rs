@@ -25,13 +25,13 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::symmetric;
 use super::{Admissibility, Terms, failed_checks};
 use crate::field::StressField;
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::triangle_rule_cached;
-use super::symmetric;
 use crate::tolerance::{
     ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE, LOAD_DEGREE, SYMMETRIC_RESIDUAL,
 };
@@ -52,8 +52,8 @@ pub struct BoundTerms {
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
-    /// (`estimate::symmetric`, design §5.11); their asymmetry term is 0 and their η_PS is
-    /// that of the corrected stress.
+    /// (`estimate::symmetric`, design §5.11; straight and curved P2 triangles); their
+    /// asymmetry term is 0 and their η_PS is that of the corrected stress.
     #[serde(default)]
     pub symmetrised_cells: usize,
 }
@@ -241,22 +241,29 @@ pub fn bound(
             } else {
                 0.0
             };
-            // Mean-free asymmetry on a straight cell with an RT stress: remove it exactly
-            // (design §5.11), which drops the Korn-constant term of this cell.
+            // Mean-free asymmetry on a triangle with an RT stress: remove it exactly (design
+            // §5.11), which drops the Korn-constant term of this cell. Straight cells use the
+            // Alfeld split of T (m = k + 2); curved P2 cells the Piola image of the reference
+            // split (m = k + 3, `symmetric::correct_curved`).
             if let StressField::Rt(rt) = sigma
-                && sh == Shape::Affine
                 && !fam.is_quad()
                 && c.mean_as <= BOUND_MOMENT_RELATIVE
+                && (sh == Shape::Affine || (sh == Shape::Curved && fam.nodes() == 6))
             {
                 let first = rt.first[t] as usize;
-                let m = rt.order.k() + 2;
-                let fix = symmetric::correct(verts, m, &el, |xi| {
+                let field = |xi: [f64; 2]| {
                     let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
                     let (s, _) = rt.at(first, &sp.jac, xi);
                     let gu = sp.gradient_at(nodes, v);
                     let sym = 0.5 * (gu[0][1] + gu[1][0]);
                     (s, el.stress([gu[0][0], sym, sym, gu[1][1]]))
-                });
+                };
+                let fix = if sh == Shape::Affine {
+                    symmetric::correct(verts, rt.order.k() + 2, &el, field)
+                } else {
+                    let n6 = [x[0], x[1], x[2], x[3], x[4], x[5]];
+                    symmetric::correct_curved(n6, rt.order.k() + 3, &el, field)
+                };
                 let floor = fix.asym_before.max(sigma_scale * area.sqrt());
                 if fix.rank + 1 == fix.rows && fix.asym_after <= SYMMETRIC_RESIDUAL * floor {
                     c.ps2 = fix.ps2;

@@ -20,6 +20,11 @@
 //! Scott–Vogelius pair on Alfeld splits, Arnold–Qin 1992; Guzmán–Neilan 2018); the rank is
 //! checked numerically for every cell, and a failure is reported, not hidden.
 //!
+//! Curved (isoparametric P2) cells, [`correct_curved`]: the contravariant Piola image
+//! φ = J φ̂ / det J of φ̂ ∈ V_m(T̂) on the Alfeld split of the reference triangle keeps
+//! continuity and φ = 0 on ∂T, with div φ = div̂ φ̂ / det J; the constraint becomes
+//! div̂ φ̂ = (as τ ∘ F) det J, a polynomial of degree ≤ k + 2 for τ ∈ RT_k, so m = k + 3.
+//!
 //! The cost is one small dense problem per cell (20 unknowns for m = 3, 38 for m = 4): the
 //! constraints are eliminated through the SVD of the divergence matrix, the remaining
 //! freedom (the divergence-free part, which only lowers ‖τ* − Cε(v)‖_A) by a Cholesky solve.
@@ -27,6 +32,7 @@
 use faer::prelude::Solve;
 use faer::{Mat, Side};
 
+use crate::geometry::map::{Jacobian, QuadraticTriangle};
 use crate::material::Elastic;
 use crate::quadrature::triangle_rule_cached;
 use crate::tolerance::SYMMETRIC_RANK;
@@ -122,6 +128,36 @@ impl Split {
         lam[i] += l[0];
         lam[(i + 1) % 3] += l[1];
         [lam[1], lam[2]]
+    }
+
+    /// Values and gradients (in the coordinates of the triangle the split was built on) of the
+    /// Lagrange functions of sub-triangle `i` at barycentrics `l`, one per lattice point.
+    fn basis(&self, i: usize, l: [f64; 3], val: &mut Vec<f64>, out: &mut Vec<[f64; 2]>) {
+        let m = self.m;
+        let p = |n: usize, s: f64| -> (f64, f64) {
+            let mut val = 1.0;
+            let mut der = 0.0;
+            for j in 0..n {
+                let f = (m as f64 * s - j as f64) / (j + 1) as f64;
+                der = der * f + val * m as f64 / (j + 1) as f64;
+                val *= f;
+            }
+            (val, der)
+        };
+        val.clear();
+        out.clear();
+        let g = &self.grad[i];
+        for &[a, b, c] in &self.lattice {
+            let (va, da) = p(a, l[0]);
+            let (vb, db) = p(b, l[1]);
+            let (vc, dc) = p(c, l[2]);
+            let (d0, d1, d2) = (da * vb * vc, va * db * vc, va * vb * dc);
+            val.push(va * vb * vc);
+            out.push([
+                d0 * g[0][0] + d1 * g[1][0] + d2 * g[2][0],
+                d0 * g[0][1] + d1 * g[1][1] + d2 * g[2][1],
+            ]);
+        }
     }
 
     /// Physical gradients of the Lagrange functions of sub-triangle `i` at barycentrics `l`,
@@ -243,38 +279,7 @@ pub fn correct(
             }
         }
     }
-    // B = U S Vᵀ: particular solution through the numerical range, the rest in the kernel.
-    let (x, rank) = match bm.svd() {
-        Ok(svd) => {
-            let (u, s, v) = (svd.U(), svd.S().column_vector(), svd.V());
-            let smax = if s.nrows() > 0 { s[0] } else { 0.0 };
-            let rank = (0..s.nrows())
-                .filter(|&j| s[j] > SYMMETRIC_RANK * smax)
-                .count();
-            let mut xp = vec![0.0; n];
-            for j in 0..rank {
-                let c = (0..rows).map(|k| u[(k, j)] * d[k]).sum::<f64>() / s[j];
-                for (k, x) in xp.iter_mut().enumerate() {
-                    *x += v[(k, j)] * c;
-                }
-            }
-            let nk = n - rank;
-            let nmat = Mat::<f64>::from_fn(n, nk, |k, j| v[(k, rank + j)]);
-            let mx = Mat::<f64>::from_fn(n, 1, |k, _| {
-                bv[k] - (0..n).map(|j| mm[(k, j)] * xp[j]).sum::<f64>()
-            });
-            let h = nmat.transpose() * &mm * &nmat;
-            let rhs = nmat.transpose() * &mx;
-            if let Ok(llt) = h.llt(Side::Lower) {
-                let z = llt.solve(&rhs);
-                for (k, x) in xp.iter_mut().enumerate() {
-                    *x += (0..nk).map(|j| nmat[(k, j)] * z[(j, 0)]).sum::<f64>();
-                }
-            }
-            (xp, rank)
-        }
-        Err(_) => (vec![0.0; n], 0),
-    };
+    let (x, rank) = solve(&mm, &bv, &bm, &d);
     // Second pass: the corrected field's Prager–Synge density and asymmetry, pointwise.
     let (mut ps2, mut asym_after) = (0.0, 0.0);
     for i in 0..3 {
@@ -304,6 +309,222 @@ pub fn correct(
         rank,
         rows,
         phi: x,
+    }
+}
+
+/// The correction on a curved (isoparametric P2) triangle with nodes `nodes` (VTK order,
+/// counter-clockwise) and polynomial degree `m` ≥ 2, through the contravariant Piola map
+/// φ = J φ̂ / det J of a φ̂ ∈ V_m(T̂) on the Alfeld split of the REFERENCE triangle.
+///
+/// φ is continuous, vanishes on ∂T, and div φ = div̂ φ̂ / det J, so div φ = as τ is
+/// div̂ φ̂ = ĝ := (as τ ∘ F) det J, imposed exactly on each reference sub-triangle (tested with
+/// P_{m−1} there, reference weights). For a row-wise RT_k stress τ_r = J τ̂_r / det J
+/// ([`crate::element::rt::piola`]), ĝ = (J τ̂₀)_y − (J τ̂₁)_x is a polynomial of degree ≤ k + 2
+/// (J has degree 1), so m = k + 3 makes the constraint exact. Curl φ in physical coordinates
+/// is built from ∇_x φ = (∇_ξ (J φ̂ / det J)) J⁻¹, with the constant ∂J/∂ξ of the P2 map
+/// ([`QuadraticTriangle::jacobian_derivatives`]).
+///
+/// The objective ‖τ + Curl φ − Cε(v)‖²_A, the second pass and ‖as τ‖ are integrated over the
+/// physical cell with weights w det J on the reference sub-triangles; these integrands are
+/// rational in ξ, so the rule has degree 2m + 6 (an approximation, not exact; the constraint
+/// integrals, polynomial of degree 2m − 2, are exact). `field(ξ)` gives τ and Cε(v) at the
+/// reference point ξ of the cell map. On a 6-node cell with straight edges this is the straight
+/// correction of [`correct`] with degree m (same space, since J is constant), up to round-off.
+pub fn correct_curved(
+    nodes: [[f64; 2]; 6],
+    m: usize,
+    el: &Elastic,
+    field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]),
+) -> Corrected {
+    let map = QuadraticTriangle::new(nodes);
+    let dj = map.jacobian_derivatives();
+    let split = Split::new([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], m);
+    let n = 2 * split.nodes;
+    let nq = m * (m + 1) / 2;
+    let rows = 3 * nq;
+    let rule = triangle_rule_cached(curved_rule_degree(m));
+    let mut mm = Mat::<f64>::zeros(n, n);
+    let mut bv = vec![0.0; n];
+    let mut bm = Mat::<f64>::zeros(rows, n);
+    let mut d = vec![0.0; rows];
+    let mut vals = Vec::with_capacity(split.lattice.len());
+    let mut grads = Vec::with_capacity(split.lattice.len());
+    let mut curls = Vec::with_capacity(split.lattice.len());
+    let mut asym_before = 0.0;
+    for i in 0..3 {
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            let xp = split.parent_xi(i, l);
+            let jac = map.jacobian(xp);
+            let wr = wq * split.det[i];
+            let w = wr * jac.det;
+            let (tau, ce) = field(xp);
+            let base = [
+                tau[0] - ce[0],
+                tau[1] - ce[1],
+                tau[2] - ce[2],
+                tau[3] - ce[3],
+            ];
+            let abase = el.compliance(base);
+            let g = tau[1] - tau[2];
+            asym_before += w * g * g;
+            split.basis(i, l, &mut vals, &mut grads);
+            piola_curls(&jac, &dj, &vals, &grads, &mut curls);
+            let mut qv = Vec::with_capacity(nq);
+            for p in 0..m {
+                for q in 0..m - p {
+                    qv.push(l[1].powi(p as i32) * l[2].powi(q as i32));
+                }
+            }
+            for ((&na, &ga), ca) in split.node[i].iter().zip(&grads).zip(&curls) {
+                let Some(na) = na else { continue };
+                for r in 0..2 {
+                    let ia = 2 * na + r;
+                    let aca = el.compliance(ca[r]);
+                    bv[ia] -= w * dot4(abase, ca[r]);
+                    for (&nb, cb) in split.node[i].iter().zip(&curls) {
+                        let Some(nb) = nb else { continue };
+                        for s in 0..2 {
+                            mm[(ia, 2 * nb + s)] += w * dot4(aca, cb[s]);
+                        }
+                    }
+                    // div̂ φ̂ = ∂_ξ φ̂₀ + ∂_η φ̂₁, reference weights.
+                    for (qi, &qq) in qv.iter().enumerate() {
+                        bm[(i * nq + qi, ia)] += wr * ga[r] * qq;
+                    }
+                }
+            }
+            for (qi, &qq) in qv.iter().enumerate() {
+                d[i * nq + qi] += wr * g * jac.det * qq;
+            }
+        }
+    }
+    let (x, rank) = solve(&mm, &bv, &bm, &d);
+    let (mut ps2, mut asym_after) = (0.0, 0.0);
+    for i in 0..3 {
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            let xp = split.parent_xi(i, l);
+            let jac = map.jacobian(xp);
+            let w = wq * split.det[i] * jac.det;
+            let (mut tau, ce) = field(xp);
+            split.basis(i, l, &mut vals, &mut grads);
+            piola_curls(&jac, &dj, &vals, &grads, &mut curls);
+            for (&na, c) in split.node[i].iter().zip(&curls) {
+                let Some(na) = na else { continue };
+                for (r, cr) in c.iter().enumerate() {
+                    for (t, cv) in tau.iter_mut().zip(cr) {
+                        *t += x[2 * na + r] * cv;
+                    }
+                }
+            }
+            ps2 += w * ps_density(el, tau, ce);
+            let a = tau[1] - tau[2];
+            asym_after += w * a * a;
+        }
+    }
+    Corrected {
+        ps2,
+        asym_after: asym_after.sqrt(),
+        asym_before: asym_before.sqrt(),
+        rank,
+        rows,
+        phi: x,
+    }
+}
+
+/// Quadrature degree of [`correct_curved`] on each reference sub-triangle: 2m + 6.
+pub const fn curved_rule_degree(m: usize) -> usize {
+    2 * m + 6
+}
+
+/// Physical gradient ∇_x φ (row a: ∂φ_a/∂x, ∂φ_a/∂y) of φ = J φ̂ / det J for φ̂ = N e_s,
+/// with N's value `v` and reference gradient `g`, at a point with Jacobian `jac`, and
+/// ∂J/∂ξ_c = `dj[c]`:
+/// ∂_c (J_as N / det J) = (∂_c J_as N + J_as ∂_c N)/det J − J_as N ∂_c det J / det J²,
+/// ∂_c det J = det J tr(J⁻¹ ∂_c J), then ∇_x = ∇_ξ J⁻¹.
+#[inline]
+fn piola_gradient(
+    jac: &Jacobian,
+    dj: &[[[f64; 2]; 2]; 2],
+    s: usize,
+    v: f64,
+    g: [f64; 2],
+) -> [[f64; 2]; 2] {
+    let (jm, ji, det) = (&jac.matrix, &jac.inverse, jac.det);
+    let mut dref = [[0.0; 2]; 2];
+    for c in 0..2 {
+        let tr = ji[0][0] * dj[c][0][0]
+            + ji[0][1] * dj[c][1][0]
+            + ji[1][0] * dj[c][0][1]
+            + ji[1][1] * dj[c][1][1];
+        for a in 0..2 {
+            dref[a][c] = (dj[c][a][s] * v + jm[a][s] * g[c]) / det - jm[a][s] * v * tr / det;
+        }
+    }
+    let mut out = [[0.0; 2]; 2];
+    for a in 0..2 {
+        for e in 0..2 {
+            out[a][e] = dref[a][0] * ji[0][e] + dref[a][1] * ji[1][e];
+        }
+    }
+    out
+}
+
+/// Curl (row-major [xx, xy, yx, yy]) of the Piola images of N e₀ and N e₁ for every Lagrange
+/// function N (values `vals`, reference gradients `grads`).
+fn piola_curls(
+    jac: &Jacobian,
+    dj: &[[[f64; 2]; 2]; 2],
+    vals: &[f64],
+    grads: &[[f64; 2]],
+    out: &mut Vec<[[f64; 4]; 2]>,
+) {
+    out.clear();
+    for (&v, &g) in vals.iter().zip(grads) {
+        out.push([0, 1].map(|s| {
+            let gp = piola_gradient(jac, dj, s, v, g);
+            [gp[0][1], -gp[0][0], gp[1][1], -gp[1][0]]
+        }));
+    }
+}
+
+/// min ½ xᵀ M x − bᵀ x subject to B x = d (in the least-squares sense on the numerical range
+/// of B): B = U S Vᵀ gives the particular solution through the range, the kernel's part is
+/// the Cholesky solve of the projected M. Returns x and the numerical rank of B.
+fn solve(mm: &Mat<f64>, bv: &[f64], bm: &Mat<f64>, d: &[f64]) -> (Vec<f64>, usize) {
+    let (rows, n) = (bm.nrows(), bm.ncols());
+    // B = U S Vᵀ: particular solution through the numerical range, the rest in the kernel.
+    match bm.svd() {
+        Ok(svd) => {
+            let (u, s, v) = (svd.U(), svd.S().column_vector(), svd.V());
+            let smax = if s.nrows() > 0 { s[0] } else { 0.0 };
+            let rank = (0..s.nrows())
+                .filter(|&j| s[j] > SYMMETRIC_RANK * smax)
+                .count();
+            let mut xp = vec![0.0; n];
+            for j in 0..rank {
+                let c = (0..rows).map(|k| u[(k, j)] * d[k]).sum::<f64>() / s[j];
+                for (k, x) in xp.iter_mut().enumerate() {
+                    *x += v[(k, j)] * c;
+                }
+            }
+            let nk = n - rank;
+            let nmat = Mat::<f64>::from_fn(n, nk, |k, j| v[(k, rank + j)]);
+            let mx = Mat::<f64>::from_fn(n, 1, |k, _| {
+                bv[k] - (0..n).map(|j| mm[(k, j)] * xp[j]).sum::<f64>()
+            });
+            let h = nmat.transpose() * mm * &nmat;
+            let rhs = nmat.transpose() * &mx;
+            if let Ok(llt) = h.llt(Side::Lower) {
+                let z = llt.solve(&rhs);
+                for (k, x) in xp.iter_mut().enumerate() {
+                    *x += (0..nk).map(|j| nmat[(k, j)] * z[(j, 0)]).sum::<f64>();
+                }
+            }
+            (xp, rank)
+        }
+        Err(_) => (vec![0.0; n], 0),
     }
 }
 
@@ -412,5 +633,263 @@ mod tests {
             "{} vs {before}",
             c.ps2
         );
+    }
+}
+
+#[cfg(test)]
+mod curved_tests {
+    use super::*;
+    use crate::element::rt::{self, RtOrder};
+
+    const EL: Elastic = Elastic {
+        mu: 1.3,
+        lambda: 2.1,
+    };
+
+    /// `tri()` of the straight tests with edge 1–2 bent outwards and edge 2–0 slightly in.
+    fn curved() -> [[f64; 2]; 6] {
+        let v = [[0.1, 0.2], [1.3, 0.05], [0.4, 0.9]];
+        let mid = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        let m12 = mid(v[1], v[2]);
+        let m20 = mid(v[2], v[0]);
+        [
+            v[0],
+            v[1],
+            v[2],
+            mid(v[0], v[1]),
+            [m12[0] + 0.12, m12[1] + 0.1],
+            [m20[0] + 0.03, m20[1] - 0.02],
+        ]
+    }
+
+    fn straight6() -> [[f64; 2]; 6] {
+        let v = [[0.1, 0.2], [1.3, 0.05], [0.4, 0.9]];
+        let mid = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        [
+            v[0],
+            v[1],
+            v[2],
+            mid(v[0], v[1]),
+            mid(v[1], v[2]),
+            mid(v[2], v[0]),
+        ]
+    }
+
+    /// τ = Σ c[r][i] (Piola image of the i-th RT basis field) on `nodes`.
+    fn rt_tau(order: RtOrder, nodes: &[[f64; 2]; 6], c: &[[f64; 15]; 2], xi: [f64; 2]) -> [f64; 4] {
+        let jac = QuadraticTriangle::new(*nodes).jacobian(xi);
+        let (v, _) = rt::piola(order, &jac, xi);
+        let mut s = [0.0; 4];
+        for i in 0..order.dofs() {
+            for r in 0..2 {
+                s[2 * r] += c[r][i] * v[i][0];
+                s[2 * r + 1] += c[r][i] * v[i][1];
+            }
+        }
+        s
+    }
+
+    /// ∫_T as τ dx (exact: (as τ) det J is a polynomial of degree ≤ k + 2).
+    fn mean_as(order: RtOrder, nodes: &[[f64; 2]; 6], c: &[[f64; 15]; 2]) -> f64 {
+        let rule = triangle_rule_cached(12);
+        let map = QuadraticTriangle::new(*nodes);
+        rule.points
+            .iter()
+            .zip(&rule.weights)
+            .map(|(&xi, &w)| {
+                let s = rt_tau(order, nodes, c, xi);
+                w * map.jacobian(xi).det * (s[1] - s[2])
+            })
+            .sum()
+    }
+
+    /// An RT_k stress with ∫_T as τ = 0: pseudo-random coefficients c₁ − (M₁/M₂) c₂.
+    fn mean_free_rt(order: RtOrder, nodes: &[[f64; 2]; 6]) -> [[f64; 15]; 2] {
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut c1 = [[0.0; 15]; 2];
+        let mut c2 = [[0.0; 15]; 2];
+        for r in 0..2 {
+            for i in 0..order.dofs() {
+                c1[r][i] = rnd();
+                c2[r][i] = rnd();
+            }
+        }
+        let (m1, m2) = (mean_as(order, nodes, &c1), mean_as(order, nodes, &c2));
+        assert!(m2.abs() > 1e-3);
+        for r in 0..2 {
+            for i in 0..15 {
+                c1[r][i] -= m1 / m2 * c2[r][i];
+            }
+        }
+        assert!(mean_as(order, nodes, &c1).abs() < 1e-13);
+        c1
+    }
+
+    /// Curl φ at parent reference point ξ for the solution `phi` of [`correct_curved`].
+    fn curl_at(nodes: &[[f64; 2]; 6], m: usize, phi: &[f64], xi: [f64; 2]) -> [f64; 4] {
+        let map = QuadraticTriangle::new(*nodes);
+        let split = Split::new([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], m);
+        let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+        // Sub-triangle (P_i, P_{i+1}, C) holds the points whose smallest λ is λ_{i+2}.
+        let i = (0..3)
+            .min_by(|&a, &b| lam[(a + 2) % 3].total_cmp(&lam[(b + 2) % 3]))
+            .unwrap();
+        let lo = lam[(i + 2) % 3];
+        let l = [lam[i] - lo, lam[(i + 1) % 3] - lo, 3.0 * lo];
+        let (mut vals, mut grads, mut curls) = (Vec::new(), Vec::new(), Vec::new());
+        split.basis(i, l, &mut vals, &mut grads);
+        piola_curls(
+            &map.jacobian(xi),
+            &map.jacobian_derivatives(),
+            &vals,
+            &grads,
+            &mut curls,
+        );
+        let mut out = [0.0; 4];
+        for (&na, c) in split.node[i].iter().zip(&curls) {
+            let Some(na) = na else { continue };
+            for (r, cr) in c.iter().enumerate() {
+                for (o, cv) in out.iter_mut().zip(cr) {
+                    *o += phi[2 * na + r] * cv;
+                }
+            }
+        }
+        out
+    }
+
+    fn points() -> Vec<[f64; 2]> {
+        let mut p = Vec::new();
+        for i in 0..=9 {
+            for j in 0..=(9 - i) {
+                p.push([(i as f64 + 0.13) / 9.6, (j as f64 + 0.21) / 9.7]);
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn divergence_is_onto_on_the_reference_split() {
+        for m in [2, 3, 4, 5] {
+            let c = correct_curved(curved(), m, &EL, |_| ([0.0; 4], [0.0; 4]));
+            assert_eq!(c.rank, c.rows - 1, "m = {m}");
+        }
+    }
+
+    #[test]
+    fn an_rt_stress_on_a_curved_cell_is_made_symmetric_with_its_divergence_and_traces_kept() {
+        let nodes = curved();
+        let map = QuadraticTriangle::new(nodes);
+        for order in [RtOrder::Rt0, RtOrder::Rt1, RtOrder::Rt2] {
+            let m = order.k() + 3;
+            let c = mean_free_rt(order, &nodes);
+            let ce = |xi: [f64; 2]| {
+                let x = map.position(xi);
+                [x[0], 0.3 * x[1], 0.3 * x[1], 1.0 - x[0] * x[1]]
+            };
+            let fix = correct_curved(nodes, m, &EL, |xi| (rt_tau(order, &nodes, &c, xi), ce(xi)));
+            assert_eq!(fix.rank + 1, fix.rows, "{order:?}");
+            assert!(fix.asym_before > 1e-2, "{order:?} {}", fix.asym_before);
+            assert!(
+                fix.asym_after < 1e-12 * fix.asym_before,
+                "{order:?} {} → {}",
+                fix.asym_before,
+                fix.asym_after
+            );
+            let scale = fix.phi.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            // Pointwise symmetry and zero divergence of Curl φ (central differences in ξ).
+            let h = 1e-5;
+            for xi in points() {
+                let t = rt_tau(order, &nodes, &c, xi);
+                let cp = curl_at(&nodes, m, &fix.phi, xi);
+                let before = (t[1] - t[2]).abs();
+                let after = (t[1] + cp[1] - t[2] - cp[2]).abs();
+                assert!(
+                    after < 1e-10 * before.max(1.0),
+                    "{order:?} {xi:?}: {before} → {after}"
+                );
+                let ji = map.jacobian(xi).inverse;
+                let mut dc = [[0.0; 4]; 2];
+                for (k, dk) in dc.iter_mut().enumerate() {
+                    let (mut p, mut q) = (xi, xi);
+                    p[k] += h;
+                    q[k] -= h;
+                    let (cp, cq) = (
+                        curl_at(&nodes, m, &fix.phi, p),
+                        curl_at(&nodes, m, &fix.phi, q),
+                    );
+                    for j in 0..4 {
+                        dk[j] = (cp[j] - cq[j]) / (2.0 * h);
+                    }
+                }
+                // ∂_x f = Σ_k ∂_ξk f (J⁻¹)_{k0}, ∂_y f = Σ_k ∂_ξk f (J⁻¹)_{k1}.
+                let dx = |j: usize, e: usize| dc[0][j] * ji[0][e] + dc[1][j] * ji[1][e];
+                for r in 0..2 {
+                    let div = dx(2 * r, 0) + dx(2 * r + 1, 1);
+                    assert!(
+                        div.abs() < 1e-5 * scale.max(1.0),
+                        "{order:?} {xi:?} div {div}"
+                    );
+                }
+            }
+            // Curl φ · n = ∂_t φ = 0 on the three (curved) edges.
+            for e in 0..3 {
+                for s in [0.05, 0.3, 0.5, 0.77, 0.95] {
+                    let xi = match e {
+                        0 => [s, 0.0],
+                        1 => [1.0 - s, s],
+                        _ => [0.0, 1.0 - s],
+                    };
+                    let tr = [[1.0, 0.0], [-1.0, 1.0], [0.0, -1.0]][e];
+                    let jm = map.jacobian(xi).matrix;
+                    let t = [
+                        jm[0][0] * tr[0] + jm[0][1] * tr[1],
+                        jm[1][0] * tr[0] + jm[1][1] * tr[1],
+                    ];
+                    let n = [t[1], -t[0]];
+                    let cp = curl_at(&nodes, m, &fix.phi, xi);
+                    for r in 0..2 {
+                        let cn = cp[2 * r] * n[0] + cp[2 * r + 1] * n[1];
+                        assert!(
+                            cn.abs() < 1e-11 * scale.max(1.0),
+                            "{order:?} edge {e} s {s}: {cn}"
+                        );
+                    }
+                }
+            }
+            // The divergence-free freedom only lowers the term (φ = 0 is admissible for the
+            // symmetric part): τ* is no farther from Cε than sym τ is... checked loosely: finite.
+            assert!(fix.ps2.is_finite() && fix.ps2 > 0.0);
+        }
+    }
+
+    #[test]
+    fn a_straight_six_node_cell_gives_the_straight_correction() {
+        let nodes = straight6();
+        let order = RtOrder::Rt1;
+        let c = mean_free_rt(order, &nodes);
+        let map = QuadraticTriangle::new(nodes);
+        let ce = |xi: [f64; 2]| {
+            let x = map.position(xi);
+            [x[0], 0.3 * x[1], 0.3 * x[1], 1.0 - x[0]]
+        };
+        let field = |xi: [f64; 2]| (rt_tau(order, &nodes, &c, xi), ce(xi));
+        let m = order.k() + 2;
+        let a = correct([nodes[0], nodes[1], nodes[2]], m, &EL, field);
+        let b = correct_curved(nodes, m, &EL, field);
+        assert_eq!(a.rank, b.rank);
+        assert!(
+            (a.ps2 - b.ps2).abs() < 1e-11 * a.ps2,
+            "{} vs {}",
+            a.ps2,
+            b.ps2
+        );
+        assert!((a.asym_before - b.asym_before).abs() < 1e-12 * a.asym_before);
+        assert!(b.asym_after < 1e-12 * b.asym_before);
     }
 }

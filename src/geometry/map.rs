@@ -17,7 +17,7 @@
 //! §9 layer 1 (element tests).
 
 use super::edge::{EDGE_NODES, LinearEdge, QuadraticEdge};
-use super::triangle::{P1_GRADIENTS, p1_values, p2_gradients, p2_values};
+use super::triangle::{P1_GRADIENTS, P2_HESSIANS, p1_values, p2_gradients, p2_values};
 
 /// The Jacobian J = ∂x/∂ξ of a reference-to-physical map at one point, with its determinant
 /// and inverse.
@@ -204,6 +204,24 @@ impl QuadraticTriangle {
         (jac, jac.physical_gradients(g))
     }
 
+    /// The constant derivatives of the Jacobian, `d[c][a][b]` = ∂J_ab/∂ξ_c = ∂²x_a/∂ξ_b∂ξ_c
+    /// (the map is quadratic, so J(ξ) = J(0) + Σ_c ξ_c `d[c]` exactly).
+    pub fn jacobian_derivatives(&self) -> [[[f64; 2]; 2]; 2] {
+        let o = self.nodes[0];
+        let mut d = [[[0.0; 2]; 2]; 2];
+        for (x, h) in self.nodes.iter().zip(&P2_HESSIANS).skip(1) {
+            let dx = [x[0] - o[0], x[1] - o[1]];
+            for (c, dc) in d.iter_mut().enumerate() {
+                for a in 0..2 {
+                    for b in 0..2 {
+                        dc[a][b] += dx[a] * h[b][c];
+                    }
+                }
+            }
+        }
+        d
+    }
+
     /// Local edge `i` (0: nodes 0→1 mid 3, 1: 1→2 mid 4, 2: 2→0 mid 5) in the cell's order.
     /// Panics if i > 2.
     #[inline]
@@ -259,6 +277,30 @@ mod tests {
     use crate::geometry::edge::{REFERENCE_NORMALS, edge_reference_point, outward_normal};
     use crate::geometry::triangle::P2_NODES;
     use crate::quadrature::{line_rule, triangle_rule};
+
+    #[test]
+    fn jacobian_derivatives_are_the_differences_of_the_affine_jacobian() {
+        let t = QuadraticTriangle::new([
+            [0.1, 0.2],
+            [1.3, 0.05],
+            [0.4, 0.9],
+            [0.75, 0.02],
+            [0.9, 0.6],
+            [0.2, 0.5],
+        ]);
+        let d = t.jacobian_derivatives();
+        let j0 = t.jacobian([0.2, 0.3]).matrix;
+        for c in 0..2 {
+            let mut xi = [0.2, 0.3];
+            xi[c] += 0.5;
+            let j1 = t.jacobian(xi).matrix;
+            for a in 0..2 {
+                for b in 0..2 {
+                    assert!((j1[a][b] - j0[a][b] - 0.5 * d[c][a][b]).abs() < 1e-14);
+                }
+            }
+        }
+    }
 
     fn sample_points() -> Vec<[f64; 2]> {
         let mut points = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];

@@ -84,6 +84,17 @@ pub fn p2_gradients(xi: [f64; 2]) -> [[f64; 2]; 6] {
     ]
 }
 
+/// Reference Hessians ∂²φi/∂ξ_b∂ξ_c of the P2 shape functions (constant, VTK order):
+/// 4∇̂λi ⊗ ∇̂λi at the vertices, 4(∇̂λa ⊗ ∇̂λb + ∇̂λb ⊗ ∇̂λa) at the mid-edge nodes.
+pub const P2_HESSIANS: [[[f64; 2]; 2]; 6] = [
+    [[4.0, 4.0], [4.0, 4.0]],
+    [[4.0, 0.0], [0.0, 0.0]],
+    [[0.0, 0.0], [0.0, 4.0]],
+    [[-8.0, -4.0], [-4.0, 0.0]],
+    [[0.0, 4.0], [4.0, 0.0]],
+    [[0.0, -4.0], [-4.0, -8.0]],
+];
+
 /// Values of the P1 (`n` = 3) or P2 (`n` = 6) shape functions at `xi`, in six slots (the
 /// unused P1 slots are 0): one signature for cells of either degree.
 #[inline]
