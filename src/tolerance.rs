@@ -214,3 +214,14 @@ pub const FLOW_PASSES: usize = 3;
 /// the SAME rule in both, so that the rigid-motion moments of div σ_h + f the bound checks are
 /// the ones the patches balanced (a kinked f integrated by two rules differs by ~1e-3).
 pub const LOAD_DEGREE: usize = 12;
+
+/// Points per contact edge at which the P2 trace is checked between nodes and lifted
+/// (`estimate::lift`): the admissibility check samples edges as finely.
+pub const LIFT_SAMPLES: usize = 64;
+
+/// A bound term that uses an uncertified constant (the local Korn constant, Payne–Weinberger on
+/// curved cells) does not cost the bound its guarantee while it is below this fraction of
+/// |||v|||: it is then the round-off of the equilibration (patch rows are met to
+/// `PATCH_DEFECT_RELATIVE`), and even a constant wrong by 100× would move the bound by less
+/// than 1e-6 of |||v|||. The term is added to the bound either way.
+pub const UNCERTIFIED_NEGLIGIBLE: f64 = 1e-8;
