@@ -355,9 +355,10 @@ fn main() {
         if a["threads"] != 2 {
             continue;
         }
-        if let Some(b) = rows.iter().find(|b| {
-            b["threads"] == 1 && b["cells"] == a["cells"] && b["degree"] == a["degree"]
-        }) {
+        if let Some(b) = rows
+            .iter()
+            .find(|b| b["threads"] == 1 && b["cells"] == a["cells"] && b["degree"] == a["degree"])
+        {
             let pb = |v: &Value| v["patch"].as_f64().unwrap() + v["bound"].as_f64().unwrap();
             println!(
                 "speed-up 1 → 2 threads, {} cells P{}: patch {:.2}×, bound {:.2}×, patch+bound {:.2}×",
