@@ -327,6 +327,16 @@ struct Report {
     stress: Source,
     contact: Contact,
     notes: Vec<String>,
+    bound: BoundJson,
+}
+
+/// The report's bound (docs/design.md §8.2).
+#[derive(Debug, Deserialize)]
+struct BoundJson {
+    guaranteed: bool,
+    energy_error: Option<f64>,
+    relative: Option<f64>,
+    failed_hypotheses: Vec<String>,
 }
 
 /// Runs `fosls estimate` on the case with `extra` arguments: (exit code, stdout, stderr).
@@ -712,6 +722,135 @@ fn reconstruction_on_a_few_extremes() {
 #[ignore = "slow: run by .ci/run with --ignored"]
 fn reconstruction_on_the_whole_matrix() {
     reconstruction_matrix(&matrix());
+}
+
+/// The patch reconstruction and the bound on the matrix (issue 13): without a gap the pair is
+/// exact and the bound is 0 to round-off; with a gap it is ≈ (½c)^½, c = g(2a₀ + 2a₁) the
+/// complementarity; guaranteed without friction; with friction it is the Tresca problem's and never
+/// guaranteed; at ν = 0.5 the patch path is refused with its reason.
+fn patch_matrix(cases: &[Case]) {
+    for c in cases {
+        let args = ["--stress", "patch", "--displacement", "file"];
+        if c.nu == 0.5 {
+            let (code, _, stderr) = run_raw(c, &args);
+            assert_eq!(code, Some(2), "{stderr}");
+            assert!(
+                stderr.contains("the patch reconstruction needs λ < ∞"),
+                "{stderr}"
+            );
+            continue;
+        }
+        let r = run(c, &args);
+        let b = &r.bound;
+        let e = b
+            .energy_error
+            .unwrap_or_else(|| panic!("{c:?}: no bound: {:?}", b.failed_hypotheses));
+        let (a, _) = Field::new(c).contact();
+        let comp = if c.uniaxial {
+            0.0
+        } else {
+            c.gap * (2.0 * a[0] + 2.0 * a[1])
+        };
+        let want = (0.5 * comp).sqrt();
+        // Round-off of η_PS: the exact pair cancels to ~1e-16 of the stress, and near ν = 0.5
+        // the compliance amplifies that by λ/μ = 2ν/(1 − 2ν) (1e7 at ν = 0.4999999).
+        let lam_mu = 2.0 * c.nu / (1.0 - 2.0 * c.nu);
+        // On slivers the patch problems' conditioning grows like the aspect ratio squared
+        // (measured: relative 3.2e-7 at aspect 1e3); reliability (bound ≥ 0 = the error) holds.
+        let mut scale = r.energy.sqrt() * (1e-10 + 1e-15 * lam_mu + 1e-12 * c.aspect * c.aspect);
+        if c.gap > 0.0 {
+            // A gap pairs τ_n with g: a τ_n of round-off (the traction-free uniaxial bottom)
+            // gives c ~ 1e-16 × energy, and the bound takes c^½.
+            scale += (1e-14 * r.energy).sqrt();
+        }
+        // With a gap the pair is not a solution (σ_n < 0 where u_n < g): the bound carries the
+        // complementarity, with the patch stress's pairing (which the patch QP trades against
+        // η_PS) in place of the exact one: within 5 % of (½c)^½ (measured: 1.1 %).
+        let slack = if comp > 0.0 { 0.05 } else { 1e-6 };
+        // With friction the slipping bottom (σ_t = 0, u_t ≠ 0) is no Coulomb solution: the
+        // friction pairing enters; only the Tresca label and finiteness are checked there.
+        assert!(
+            c.friction > 0.0 && e.is_finite() || (e - want).abs() <= slack * want + scale,
+            "{c:?}: bound {e} against (½c)^½ = {want} (energy^½ {scale})"
+        );
+        if c.friction > 0.0 {
+            assert!(!b.guaranteed, "{c:?}");
+            assert!(
+                b.failed_hypotheses[0].starts_with("Coulomb friction"),
+                "{b:?}"
+            );
+        } else if c.aspect > 1.0 {
+            // Round-off in div τ + f times K_T (1.2e4 at aspect 1e3) passes the 1e-8 cut for
+            // uncertified terms: the only hypothesis allowed to fail on slivers.
+            for h in &b.failed_hypotheses {
+                assert!(h.starts_with("the local Korn constants"), "{c:?}: {h}");
+            }
+        } else if c.nu > 0.4999 {
+            // The patch QP meets τ_t = 0 to its round-off, amplified by λ/μ = 1e7 here: σ_t
+            // 5e-10 of the stress scale fails the 1e-10 admissibility check (a known limit).
+            for h in &b.failed_hypotheses {
+                assert!(h.starts_with("σ_h has tangential traction"), "{c:?}: {h}");
+            }
+        } else {
+            assert!(b.guaranteed, "{c:?}: {:?}", b.failed_hypotheses);
+        }
+        eprintln!(
+            "patch nu={} E={:e} aspect={:e} gap={:e} friction={:e} uniaxial={} contact_to={}: \
+             bound {e:.3e} (hand {want:.3e}), relative {:?}, guaranteed {}",
+            c.nu,
+            c.e,
+            c.aspect,
+            c.gap,
+            c.friction,
+            c.uniaxial,
+            c.contact_to,
+            b.relative,
+            b.guaranteed
+        );
+    }
+}
+
+#[test]
+fn patch_bound_on_a_few_extremes() {
+    let m = matrix();
+    // ν = 0.4999999, ν = 0.5 (refused), E = 1e12, gap 1e-6, aspect 1e3, one contact edge.
+    patch_matrix(&[
+        m[4].clone(),
+        m[5].clone(),
+        m[9].clone(),
+        m[11].clone(),
+        m[17].clone(),
+        m[20].clone(),
+    ]);
+}
+
+#[test]
+#[ignore = "slow: run by .ci/run with --ignored"]
+fn patch_bound_on_the_whole_matrix() {
+    patch_matrix(&matrix());
+}
+
+/// With a gap of 1e-6 the bound is (½c)^½ > 0 and E-independent relative to the energy:
+/// `bound.relative` is the same to 1e-10 for E from 1e-3 to 1e12.
+#[test]
+fn patch_bound_relative_is_invariant_in_e() {
+    let rel = |e: f64| {
+        let c = Case {
+            e,
+            gap: 1e-6 * W,
+            ..Case::default()
+        };
+        run(&c, &["--stress", "patch", "--displacement", "file"])
+            .bound
+            .relative
+            .unwrap()
+    };
+    let reference = rel(20600.0);
+    assert!(reference > 0.0);
+    for e in [1e-3, 1.0, 2.06e11, 1e12] {
+        let d = rel_err(rel(e), reference);
+        assert!(d < 1e-10, "E = {e:e}: relative off by {d:e}");
+    }
 }
 
 /// The conditioning warning of the aspect-1e3 sliver (κ ≈ 5e8 > 1e8) is a line of the text
