@@ -20,7 +20,7 @@ map).  Fine points outside the coarse mesh (curved boundary mismatch) are skippe
 reported, and a second value evaluates u_h there by polynomial extension of the nearest coarse cell.
 The reference's own error is estimated by the same error of the coarser levels against the finest.
 Cross-check: sqrt(E(u_h) - E(u_ref)) (energy difference; equals e for linear problems with nested spaces).
-Defaults: ~2.5 min on 2 cores, ~3 GB.
+Defaults: ~75 s on 2 cores (k = 8 solve: 121k dofs, 11 active-set steps), a few GB of memory.
 """
 import argparse
 import sys
