@@ -735,10 +735,16 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     if let Some(p) = &patch_info {
         notes.push(format!(
             "patch reconstruction: {} vertex patches (up to {} unknowns), {} active contact \
-             constraints{}{}",
+             constraints{}{}{}",
             p.patches,
             p.max_unknowns,
             p.active,
+            if p.balanced {
+                ", loads rebalanced between patches (u_h is not the Galerkin solution of this \
+                 discrete problem; docs/design.md §5.10)"
+            } else {
+                ""
+            },
             if p.unsettled > 0 {
                 format!(", {} patches whose active set did NOT settle", p.unsettled)
             } else {
@@ -746,9 +752,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             },
             if p.incompatible > 0 {
                 format!(
-                    "; WARNING: on {} patches the displacement does not satisfy the discrete \
-                     equations (largest relative defect {:.1e}): σ_h is not exactly \
-                     equilibrated there",
+                    "; WARNING: on {} patches the constraints could not be met (largest \
+                     relative defect {:.1e}): σ_h is not exactly equilibrated there",
                     p.incompatible, p.max_defect
                 )
             } else {
