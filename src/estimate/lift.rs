@@ -68,8 +68,7 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
         if mid == crate::mesh::NONE {
             continue;
         }
-        let (spm, normal_m, _, _) = sub_edge_point(fam, &x[..6], sh, 0, l, 0.5);
-        let _ = spm;
+        let (_, normal_m, _, _) = sub_edge_point(fam, &x[..6], sh, 0, l, 0.5);
         let nm = spec.direction(normal_m);
         let mut c: f64 = 0.0;
         for i in 1..LIFT_SAMPLES {
@@ -99,8 +98,8 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
         out[mid][0] -= c * nm[0];
         out[mid][1] -= c * nm[1];
     }
-    // |||v' − v|||² over the cells of the lifted edges (the mid nodes belong to no other cell
-    // on the boundary... but to the neighbour across nothing: a boundary edge has one cell).
+    // |||v' − v|||² over the cells of the lifted edges: a boundary edge's mid node belongs to
+    // its one cell only.
     let delta: Vec<[f64; 2]> = out
         .iter()
         .zip(v)

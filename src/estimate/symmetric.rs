@@ -564,9 +564,6 @@ mod tests {
         // τ with as τ = x² − mean-ish quadratic: add the skew field a(x) [[0, 1], [−1, 0]]/2
         // to a symmetric field; a quadratic with zero mean on T (mean removed by hand below).
         let v = tri();
-        let area = 0.5
-            * ((v[1][0] - v[0][0]) * (v[2][1] - v[0][1])
-                - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]));
         // ∫_T x dx / |T| = centroid; a = (x − x_c)(y − y_c) − M with M its mean (by quadrature).
         let xc = (v[0][0] + v[1][0] + v[2][0]) / 3.0;
         let yc = (v[0][1] + v[1][1] + v[2][1]) / 3.0;
@@ -591,7 +588,6 @@ mod tests {
             c.asym_before,
             c.asym_after
         );
-        let _ = area;
     }
 
     #[test]
