@@ -131,7 +131,8 @@ impl Split {
     }
 
     /// Values and gradients (in the coordinates of the triangle the split was built on) of the
-    /// Lagrange functions of sub-triangle `i` at barycentrics `l`, one per lattice point.
+    /// Lagrange functions of sub-triangle `i` at barycentrics `l`, one per lattice point:
+    /// φ_abc = p_a(l₀) p_b(l₁) p_c(l₂), p_n(s) = Π_{j<n} (ms − j)/(j + 1).
     fn basis(&self, i: usize, l: [f64; 3], val: &mut Vec<f64>, out: &mut Vec<[f64; 2]>) {
         let m = self.m;
         let p = |n: usize, s: f64| -> (f64, f64) {
@@ -153,34 +154,6 @@ impl Split {
             let (vc, dc) = p(c, l[2]);
             let (d0, d1, d2) = (da * vb * vc, va * db * vc, va * vb * dc);
             val.push(va * vb * vc);
-            out.push([
-                d0 * g[0][0] + d1 * g[1][0] + d2 * g[2][0],
-                d0 * g[0][1] + d1 * g[1][1] + d2 * g[2][1],
-            ]);
-        }
-    }
-
-    /// Physical gradients of the Lagrange functions of sub-triangle `i` at barycentrics `l`,
-    /// one per lattice point: φ_abc = p_a(l₀) p_b(l₁) p_c(l₂), p_n(s) = Π_{j<n} (ms − j)/(j + 1).
-    fn gradients(&self, i: usize, l: [f64; 3], out: &mut Vec<[f64; 2]>) {
-        let m = self.m;
-        let p = |n: usize, s: f64| -> (f64, f64) {
-            let mut val = 1.0;
-            let mut der = 0.0;
-            for j in 0..n {
-                let f = (m as f64 * s - j as f64) / (j + 1) as f64;
-                der = der * f + val * m as f64 / (j + 1) as f64;
-                val *= f;
-            }
-            (val, der)
-        };
-        out.clear();
-        let g = &self.grad[i];
-        for &[a, b, c] in &self.lattice {
-            let (va, da) = p(a, l[0]);
-            let (vb, db) = p(b, l[1]);
-            let (vc, dc) = p(c, l[2]);
-            let (d0, d1, d2) = (da * vb * vc, va * db * vc, va * vb * dc);
             out.push([
                 d0 * g[0][0] + d1 * g[1][0] + d2 * g[2][0],
                 d0 * g[0][1] + d1 * g[1][1] + d2 * g[2][1],
@@ -231,6 +204,7 @@ pub fn correct(
     let mut bv = vec![0.0; n];
     let mut bm = Mat::<f64>::zeros(rows, n);
     let mut d = vec![0.0; rows];
+    let mut vals = Vec::with_capacity(split.lattice.len());
     let mut grads = Vec::with_capacity(split.lattice.len());
     let mut asym_before = 0.0;
     for i in 0..3 {
@@ -247,7 +221,7 @@ pub fn correct(
             let abase = el.compliance(base);
             let g = tau[1] - tau[2];
             asym_before += w * g * g;
-            split.gradients(i, l, &mut grads);
+            split.basis(i, l, &mut vals, &mut grads);
             // Test monomials l₁^p l₂^q, p + q ≤ m − 1, of the sub-triangle.
             let mut qv = Vec::with_capacity(nq);
             for p in 0..m {
@@ -287,7 +261,7 @@ pub fn correct(
             let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
             let w = wq * split.det[i];
             let (mut tau, ce) = field(split.parent_xi(i, l));
-            split.gradients(i, l, &mut grads);
+            split.basis(i, l, &mut vals, &mut grads);
             for (&na, &ga) in split.node[i].iter().zip(&grads) {
                 let Some(na) = na else { continue };
                 for r in 0..2 {
