@@ -179,6 +179,13 @@ pub const PATCH_QP_REGULARISATION: f64 = 1e-12;
 /// while a displacement that is not a Galerkin solution leaves defects of its solver tolerance.
 pub const PATCH_DEFECT_RELATIVE: f64 = 1e-8;
 
+/// Singular values of the reference divergence matrix of the RT bubbles (condense.rs) below
+/// this fraction of the largest are its kernel. The matrix is fixed per order: its zero singular
+/// values (the curl of the cubic bubble for RT_2; the left kernel, the mean) are round-off
+/// ~1e-16, its non-zero ones within 2 orders of magnitude of each other, so the cut cannot
+/// misjudge the rank.
+pub const CONDENSATION_RANK: f64 = 1e-10;
+
 /// A constraint row whose component orthogonal to the previous rows is below this fraction of
 /// its norm is dependent (dropped; its consistency shows in the defect).
 pub const PATCH_DEPENDENT_ROW: f64 = 1e-10;

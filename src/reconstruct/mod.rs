@@ -3,6 +3,7 @@
 //! Stress: σ_h = argmin over τ ∈ RT_k(T_h)² ∩ K_σ of F(u_h, τ), a convex quadratic program
 //! with bound constraints on the normal traces at the contact points ([`solve`]).
 
+pub mod condense;
 pub mod displacement;
 pub mod flow;
 pub mod nodal;

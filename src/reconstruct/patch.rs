@@ -33,9 +33,10 @@
 
 use rayon::prelude::*;
 
-use super::flow;
+use super::{condense, flow};
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
+use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
 use crate::mesh::NONE;
 use crate::problem::{Condition, Context};
@@ -76,11 +77,37 @@ pub struct Reconstruction {
     pub info: PatchInfo,
 }
 
-/// An affine expression Σ c_j x_j + c₀ in the patch unknowns.
-#[derive(Clone, Debug, Default)]
+/// An affine expression Σ c_j x_j + c₀ in the patch unknowns, on the stack: at most 6 terms
+/// (a contact slot of RT_2: 3 Bernstein coefficients × 2 variables).
+#[derive(Clone, Copy, Debug, Default)]
 struct Lin {
-    terms: Vec<(usize, f64)>,
+    terms: [(u32, f64); 6],
+    n: u8,
     c: f64,
+}
+
+impl Lin {
+    fn push(&mut self, var: usize, coef: f64) {
+        self.terms[self.n as usize] = (var as u32, coef);
+        self.n += 1;
+    }
+
+    fn terms(&self) -> &[(u32, f64)] {
+        &self.terms[..self.n as usize]
+    }
+
+    fn scaled(&self, s: f64) -> Lin {
+        let mut out = *self;
+        for t in &mut out.terms[..self.n as usize] {
+            t.1 *= s;
+        }
+        out.c *= s;
+        out
+    }
+
+    fn value(&self, x: &[f64]) -> f64 {
+        self.terms().iter().map(|&(v, c)| c * x[v as usize]).sum()
+    }
 }
 
 /// Bernstein-to-point-value matrix of the edge slots: value at slot i = Σ_j B_ij b_j.
@@ -372,6 +399,8 @@ fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Opt
 }
 
 /// One patch: unknowns, local maps, quadrature, QP (module doc).
+// Index loops over (row, DOF, moment) mirror the formulas of condense.rs.
+#[allow(clippy::needless_range_loop)]
 fn solve_patch(
     ctx: &Context,
     u: &[[f64; 2]],
@@ -383,16 +412,11 @@ fn solve_patch(
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
     let (x0, length) = (setup.origin, setup.length);
     let mut dirichlet = false;
-    // Per cell: its first row, and e_x, e_y, (x − x₀)^⊥/L in the moments 1, ξ, η (the rows'
-    // first three test functions; exact on straight cells).
-    let mut rigid: Vec<(usize, [[[f64; 3]; 2]; 3])> = Vec::with_capacity(cells.len());
     let mesh = ctx.mesh;
     let topo = ctx.topo;
     let el = ctx.elastic;
     let scene = ctx.scene;
     let ne = order.edge_dofs();
-    let nloc = order.dofs();
-    let nint = order.interior_dofs();
     let bern = bernstein(order);
     let mut nvar = 0usize;
     let mut bounded: Vec<usize> = Vec::new();
@@ -427,7 +451,7 @@ fn solve_patch(
                 (false, _) if radial => {
                     for row in vals.iter_mut() {
                         for v in row.iter_mut().take(ne) {
-                            v.terms.push((nvar, 1.0));
+                            v.push(nvar, 1.0);
                             nvar += 1;
                         }
                     }
@@ -437,7 +461,7 @@ fn solve_patch(
                     dirichlet = true;
                     for row in vals.iter_mut() {
                         for v in row.iter_mut().take(ne) {
-                            v.terms.push((nvar, 1.0));
+                            v.push(nvar, 1.0);
                             nvar += 1;
                         }
                     }
@@ -505,8 +529,8 @@ fn solve_patch(
                         for (r, row) in vals.iter_mut().enumerate() {
                             for (j, &bij) in bern[slot].iter().enumerate().take(ne) {
                                 if bij != 0.0 {
-                                    row[slot].terms.push((base + 2 * j, sgn * bij * c0[r]));
-                                    row[slot].terms.push((base + 2 * j + 1, sgn * bij * c1[r]));
+                                    row[slot].push(base + 2 * j, sgn * bij * c0[r]);
+                                    row[slot].push(base + 2 * j + 1, sgn * bij * c1[r]);
                                 }
                             }
                         }
@@ -517,19 +541,24 @@ fn solve_patch(
             edge_vals.push(vals);
         }
     }
+    // Interior values: condensed (condense.rs), dim ker D_I free values per cell and row.
+    let re = condense::reference(order);
+    let (nloc, nedge, nq, nz, nred) = (re.nloc, re.nedge, re.nq, re.nz, re.nred);
     let interior_base = nvar;
-    nvar += cells.len() * 2 * nint;
+    nvar += cells.len() * 2 * nz;
+    let (nl, nr) = (2 * nloc, 2 * nred);
 
-    let k = order.k();
-    let nq = (k + 1) * (k + 2) / 2;
     let mut m = vec![0.0; nvar * nvar];
     let mut bvec = vec![0.0; nvar];
     // Equality rows B (flat, row-major, nvar columns) and their right-hand sides d.
     let mut rows: Vec<f64> = Vec::new();
     let mut rhs: Vec<f64> = Vec::new();
     let f_expr = scene.body_force.as_ref();
-    let nl = 2 * nloc;
-    let mut locals: Vec<Vec<Lin>> = Vec::with_capacity(cells.len());
+    let mut parts: Vec<CellPart> = Vec::with_capacity(cells.len());
+    let mut mloc = vec![0.0; nl * nl];
+    let mut mt = vec![0.0; nl * nr];
+    let mut mred = vec![0.0; nr * nr];
+    let mut rmap = [Lin::default(); 2 * (9 + 1)];
     for (ci, &(t, j)) in cells.iter().enumerate() {
         let t = t as usize;
         let j = j as usize;
@@ -537,40 +566,51 @@ fn solve_patch(
         let x = mesh.coords(t);
         let nodes = mesh.nodes(t);
         let sh = mesh.shape[t];
-        // Local function (row r, DOF i) → affine expression in the unknowns.
-        let mut map: Vec<Lin> = vec![Lin::default(); nl];
+        let affine = sh == Shape::Affine;
+        let mut part = CellPart {
+            t: t as u32,
+            emap: [[Lin::default(); 9]; 2],
+            c0: [0.0; 2 * MAX_RT_DOFS],
+            g: [[0.0; 6]; 2],
+            srow: [0.0; 2 * MAX_RT_DOFS],
+            kernel: interior_base + ci * 2 * nz,
+            rigid: [[[0.0; 3]; 2]; 3],
+        };
+        // Local edge function (row r, DOF e) → affine expression in the unknowns.
         for r in 0..2 {
             for l in 0..3 {
                 let e = topo.cell_edges[t][l];
                 let pos = edge_ids.iter().position(|&x| x == e).expect("patch edge");
                 let forward = topo.cell_edge_sign[t][l] > 0;
                 for (loc, slot, sign) in rt::local_to_global_edge(order, l, forward) {
-                    let g = &edge_vals[pos][r][slot];
-                    map[r * nloc + loc] = Lin {
-                        terms: g.terms.iter().map(|&(v, c)| (v, sign * c)).collect(),
-                        c: sign * g.c,
-                    };
+                    part.emap[r][loc] = edge_vals[pos][r][slot].scaled(sign);
                 }
-            }
-            for mi in 0..nint {
-                map[r * nloc + 3 * ne + mi] = Lin {
-                    terms: vec![(interior_base + (ci * 2 + r) * nint + mi, 1.0)],
-                    c: 0.0,
-                };
             }
         }
         let p = mesh.degree;
+        let k = order.k();
         let mut deg = (2 * k + 2).max(k + p + 1).max(2 * p);
         if f_expr.is_some_and(|f| !(f[0].is_constant() && f[1].is_constant())) {
             deg = deg.max(LOAD_DEGREE);
         }
         let rule = triangle_rule_cached(rule_degree(sh, deg));
-        let mut mloc = vec![0.0; nl * nl];
-        let mut bloc = vec![0.0; nl];
-        // Divergence rows (row r, moment q) and the symmetry row, over local functions.
-        let mut drow = vec![vec![0.0; nl]; 2 * nq];
-        let mut drhs = vec![0.0; 2 * nq];
-        let mut srow = vec![0.0; nl];
+        let mut bloc = [0.0; 2 * MAX_RT_DOFS];
+        // The symmetry row ∫_T (τ_xy − τ_yx) exactly (J is linear in ξ; condense.rs).
+        let jv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+            .map(|xi| sub_point(fam, &x[..fam.nodes()], sh, 0, xi).jac.matrix);
+        for i in 0..nloc {
+            let [a, b] = condense::mean_value(re, jv, i);
+            part.srow[i] = b;
+            part.srow[nloc + i] = -a;
+        }
+        if affine {
+            // Within the straightness tolerance of `Shape::Affine`, the Jacobian at the
+            // centroid: the mass matrix only chooses among the equilibrated stresses.
+            let jac = sub_point(fam, &x[..fam.nodes()], sh, 0, [1.0 / 3.0; 2]).jac;
+            condense::affine_mass(re, &jac, &el, &mut mloc);
+        } else {
+            mloc.iter_mut().for_each(|v| *v = 0.0);
+        }
         for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
             let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
             let jac = sp.jac;
@@ -598,38 +638,43 @@ fn solve_patch(
                 target[0] += ex.c[0] - ex.c[2] * (sp.x[1] - ex.centre[1]);
                 target[1] += ex.c[1] + ex.c[2] * (sp.x[0] - ex.centre[0]);
             }
-            let qv = [
-                1.0,
-                xi[0],
-                xi[1],
-                xi[0] * xi[0],
-                xi[0] * xi[1],
-                xi[1] * xi[1],
-            ];
-            let (v, d) = rt::piola(order, &jac, xi);
-            let mut tau = vec![[0.0; 4]; nl];
-            let mut at = vec![[0.0; 4]; nl];
+            // The divergence rows' right-hand sides (reference moments: the rows are
+            // (div τ, q)_T = ∫_T̂ div̂ τ̂ q̂, condense.rs).
+            let qv = condense::test_monomials(xi);
+            for r in 0..2 {
+                for q in 0..nq {
+                    part.g[r][q] += w * target[r] * qv[q];
+                }
+            }
+            let (v, _) = rt::piola(order, &jac, xi);
             for r in 0..2 {
                 for i in 0..nloc {
-                    let a = r * nloc + i;
-                    tau[a][2 * r] = v[i][0];
-                    tau[a][2 * r + 1] = v[i][1];
-                    at[a] = el.compliance(tau[a]);
-                    for q in 0..nq {
-                        drow[r * nq + q][a] += w * d[i] * qv[q];
+                    bloc[r * nloc + i] +=
+                        w * psi * (v[i][0] * eps[2 * r] + v[i][1] * eps[2 * r + 1]);
+                }
+            }
+            if !affine {
+                let mut tau = [[0.0; 4]; 2 * MAX_RT_DOFS];
+                let mut at = [[0.0; 4]; 2 * MAX_RT_DOFS];
+                for r in 0..2 {
+                    for i in 0..nloc {
+                        let a = r * nloc + i;
+                        tau[a][2 * r] = v[i][0];
+                        tau[a][2 * r + 1] = v[i][1];
+                        at[a] = el.compliance(tau[a]);
+                    }
+                }
+                for a in 0..nl {
+                    for c in 0..=a {
+                        mloc[a * nl + c] += w * dot4(at[a], tau[c]);
                     }
                 }
             }
-            for r in 0..2 {
-                for q in 0..nq {
-                    drhs[r * nq + q] += w * target[r] * qv[q];
-                }
-            }
+        }
+        if !affine {
             for a in 0..nl {
-                srow[a] += w * (tau[a][1] - tau[a][2]);
-                bloc[a] += w * psi * dot4(tau[a], eps);
-                for c in 0..=a {
-                    mloc[a * nl + c] += w * dot4(at[a], tau[c]);
+                for c in 0..a {
+                    mloc[c * nl + a] = mloc[a * nl + c];
                 }
             }
         }
@@ -669,27 +714,143 @@ fn solve_patch(
                 }
             }
         }
-        // Scatter: c = L x + c₀.
+        // The local constant c₀ = T ē₀ + t₀ (Neumann fluxes through T, D_I⁺g) and
+        // c = T E y + c₀ with y the patch unknowns (condense.rs).
+        for r in 0..2 {
+            for e in 0..nedge {
+                part.c0[r * nloc + e] = part.emap[r][e].c;
+            }
+            for i in 0..re.nint {
+                let mut v: f64 = (0..nq).map(|q| re.pinv[i * nq + q] * part.g[r][q]).sum();
+                for e in 0..nedge {
+                    v += re.transform[(nedge + i) * nred + e] * part.emap[r][e].c;
+                }
+                part.c0[r * nloc + nedge + i] = v;
+            }
+        }
+        // Reduced local problem: Tᵀ M T and Tᵀ(b − M c₀), T block-diagonal over the rows.
         for a in 0..nl {
-            for c in 0..nl {
-                let mv = if c <= a {
-                    mloc[a * nl + c]
+            let ma = &mloc[a * nl..(a + 1) * nl];
+            for r2 in 0..2 {
+                for y in 0..nred {
+                    let mut v = 0.0;
+                    for c in 0..nloc {
+                        let tc = re.transform[c * nred + y];
+                        if tc != 0.0 {
+                            v += ma[r2 * nloc + c] * tc;
+                        }
+                    }
+                    mt[a * nr + r2 * nred + y] = v;
+                }
+            }
+        }
+        let mut rb = [0.0; 2 * MAX_RT_DOFS];
+        for a in 0..nl {
+            let ma = &mloc[a * nl..(a + 1) * nl];
+            rb[a] = bloc[a]
+                - ma.iter()
+                    .zip(&part.c0[..nl])
+                    .map(|(p, q)| p * q)
+                    .sum::<f64>();
+        }
+        let mut bred = [0.0; 2 * (9 + 1)];
+        for r in 0..2 {
+            for y in 0..nred {
+                let (mut bv, row) = (0.0, r * nred + y);
+                for c in 0..nloc {
+                    let tc = re.transform[c * nred + y];
+                    if tc == 0.0 {
+                        continue;
+                    }
+                    bv += tc * rb[r * nloc + c];
+                    let mr = &mt[(r * nloc + c) * nr..(r * nloc + c + 1) * nr];
+                    for (acc, v) in mred[row * nr..(row + 1) * nr].iter_mut().zip(mr) {
+                        *acc += tc * v;
+                    }
+                }
+                bred[row] = bv;
+            }
+        }
+        // Reduced local unknown (row r, y) → patch unknowns.
+        for r in 0..2 {
+            for y in 0..nred {
+                rmap[r * nred + y] = if y < nedge {
+                    Lin {
+                        c: 0.0,
+                        ..part.emap[r][y]
+                    }
                 } else {
-                    mloc[c * nl + a]
+                    let mut l = Lin::default();
+                    l.push(part.kernel + r * nz + (y - nedge), 1.0);
+                    l
                 };
+            }
+        }
+        for a in 0..nr {
+            let ta = rmap[a].terms();
+            for (c, &mv) in mred[a * nr..(a + 1) * nr].iter().enumerate() {
                 if mv == 0.0 {
                     continue;
                 }
-                for &(va, ca) in &map[a].terms {
-                    for &(vc, cc) in &map[c].terms {
-                        m[va * nvar + vc] += ca * cc * mv;
+                for &(va, ca) in ta {
+                    let mrow = &mut m[va as usize * nvar..(va as usize + 1) * nvar];
+                    for &(vc, cc) in rmap[c].terms() {
+                        mrow[vc as usize] += ca * cc * mv;
                     }
-                    bvec[va] -= ca * mv * map[c].c;
                 }
             }
-            for &(va, ca) in &map[a].terms {
-                bvec[va] += ca * bloc[a];
+            for &(va, ca) in ta {
+                bvec[va as usize] += ca * bred[a];
             }
+        }
+        mred.iter_mut().for_each(|v| *v = 0.0);
+        let mut push_row = |g: &[f64], d: f64| {
+            let start = rows.len();
+            rows.resize(start + nvar, 0.0);
+            let row = &mut rows[start..];
+            for (a, &ga) in g.iter().enumerate() {
+                if ga == 0.0 {
+                    continue;
+                }
+                for &(va, ca) in rmap[a].terms() {
+                    row[va as usize] += ga * ca;
+                }
+            }
+            rhs.push(d);
+        };
+        // The kept rows U₀ᵀ(D c_r − g_r) = 0 per row r.
+        let mut g_red = [0.0; 2 * (9 + 1)];
+        for r in 0..2 {
+            for m0 in 0..re.n0 {
+                g_red.iter_mut().for_each(|v| *v = 0.0);
+                g_red[r * nred..(r + 1) * nred]
+                    .copy_from_slice(&re.kept[m0 * nred..(m0 + 1) * nred]);
+                let d: f64 = (0..nq)
+                    .map(|q| {
+                        re.left[m0 * nq + q]
+                            * (part.g[r][q]
+                                - (0..nloc)
+                                    .map(|c| re.div[q * nloc + c] * part.c0[r * nloc + c])
+                                    .sum::<f64>())
+                    })
+                    .sum();
+                push_row(&g_red[..nr], d);
+            }
+        }
+        if weak_symmetry {
+            for r in 0..2 {
+                for y in 0..nred {
+                    g_red[r * nred + y] = (0..nloc)
+                        .map(|c| part.srow[r * nloc + c] * re.transform[c * nred + y])
+                        .sum();
+                }
+            }
+            let d = -part.srow[..nl]
+                .iter()
+                .zip(&part.c0[..nl])
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+            push_row(&g_red[..nr], d);
         }
         {
             let (p0, p1, p2) = (x[0], x[1], x[2]);
@@ -697,45 +858,20 @@ fn solve_patch(
                 [p1[0] - p0[0], p1[1] - p0[1]],
                 [p2[0] - p0[0], p2[1] - p0[1]],
             );
-            rigid.push((
-                rhs.len(),
+            part.rigid = [
+                [[1.0, 0.0, 0.0], [0.0; 3]],
+                [[0.0; 3], [1.0, 0.0, 0.0]],
                 [
-                    [[1.0, 0.0, 0.0], [0.0; 3]],
-                    [[0.0; 3], [1.0, 0.0, 0.0]],
                     [
-                        [
-                            -(p0[1] - x0[1]) / length,
-                            -dx1[1] / length,
-                            -dx2[1] / length,
-                        ],
-                        [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
+                        -(p0[1] - x0[1]) / length,
+                        -dx1[1] / length,
+                        -dx2[1] / length,
                     ],
+                    [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
                 ],
-            ));
+            ];
         }
-        let mut push_row = |g: &[f64], d: f64| {
-            let start = rows.len();
-            rows.resize(start + nvar, 0.0);
-            let row = &mut rows[start..];
-            let mut r = d;
-            for a in 0..nl {
-                if g[a] == 0.0 {
-                    continue;
-                }
-                for &(va, ca) in &map[a].terms {
-                    row[va] += g[a] * ca;
-                }
-                r -= g[a] * map[a].c;
-            }
-            rhs.push(r);
-        };
-        for q in 0..2 * nq {
-            push_row(&drow[q], drhs[q]);
-        }
-        if weak_symmetry {
-            push_row(&srow, 0.0);
-        }
-        locals.push(map);
+        parts.push(part);
     }
     // The contact equalities come last: relaxed first if the patch problem is infeasible.
     let hard_rows = rhs.len();
@@ -750,50 +886,82 @@ fn solve_patch(
         active,
         settled,
         feasible,
-        defect,
+        defect: _,
     } = qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded);
     // The rigid-motion moments of the constraint residual (flow.rs's e_a): with the rows
     // (div τ − target, q)_T and ∫_T as τ, e_i = ∫(target − div τ)·ρ_i, plus ∫ as τ/L for the
     // rotation (the divergence theorem: ∫ div τ·ρ₃ = ∫_∂ τn·ρ₃ + ∫ as τ).
     // Variables that must vanish (frictionless tangential fluxes, infinite gaps) count at 0:
-    // a fallback that relaxed them carries illegal moments, which are a defect too.
+    // a fallback that relaxed them carries illegal moments, which are a defect too. The
+    // residuals are those of all the rows, the condensed ones included, so the defect is
+    // max |row residual| / max (Σ|row terms| + |rhs|) over the full rows (qp::defect's measure).
     let mut legal = x.clone();
     for &z in &zero_vars {
         legal[z] = 0.0;
     }
-    let residual = |k: usize| -> f64 {
-        let row = &rows[k * nvar..(k + 1) * nvar];
-        row.iter().zip(&legal).map(|(a, b)| a * b).sum::<f64>() - rhs[k]
-    };
     let mut balance = [0.0; 3];
-    for &(start, coef) in &rigid {
-        for (bi, ci) in balance.iter_mut().zip(&coef) {
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    let mut out_cells = Vec::with_capacity(parts.len());
+    for part in &parts {
+        let full = |x: &[f64]| {
+            let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            for r in 0..2 {
+                let mut y = [0.0; 9 + 1];
+                for e in 0..nedge {
+                    y[e] = part.emap[r][e].value(x);
+                }
+                for mz in 0..nz {
+                    y[nedge + mz] = x[part.kernel + r * nz + mz];
+                }
+                for (i, ci) in c[r].iter_mut().enumerate().take(nloc) {
+                    *ci = part.c0[r * nloc + i]
+                        + (0..nred)
+                            .map(|yy| re.transform[i * nred + yy] * y[yy])
+                            .sum::<f64>();
+                }
+            }
+            c
+        };
+        let c = full(&legal);
+        let mut res = [[0.0; 6]; 2];
+        for r in 0..2 {
+            for q in 0..nq {
+                let (mut dc, mut abs) = (0.0, 0.0);
+                for i in 0..nloc {
+                    let v = re.div[q * nloc + i] * c[r][i];
+                    dc += v;
+                    abs += v.abs();
+                }
+                res[r][q] = dc - part.g[r][q];
+                worst = worst.max(res[r][q].abs());
+                scale = scale.max(abs + part.g[r][q].abs());
+            }
+        }
+        for (bi, ci) in balance.iter_mut().zip(&part.rigid) {
             for (r, cr) in ci.iter().enumerate() {
-                for (q, &c) in cr.iter().enumerate() {
-                    if c != 0.0 {
-                        *bi -= c * residual(start + r * nq + q);
+                for (q, &cq) in cr.iter().enumerate() {
+                    if cq != 0.0 {
+                        *bi -= cq * res[r][q];
                     }
                 }
             }
         }
         if weak_symmetry {
-            balance[2] += residual(start + 2 * nq) / length;
-        }
-    }
-    let out_cells = cells
-        .iter()
-        .zip(&locals)
-        .map(|(&(t, _), map)| {
-            let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            let (mut sres, mut abs) = (0.0, 0.0);
             for r in 0..2 {
                 for i in 0..nloc {
-                    let lin = &map[r * nloc + i];
-                    c[r][i] = lin.c + lin.terms.iter().map(|&(v, cf)| cf * x[v]).sum::<f64>();
+                    let v = part.srow[r * nloc + i] * c[r][i];
+                    sres += v;
+                    abs += v.abs();
                 }
             }
-            (t, c)
-        })
-        .collect();
+            worst = worst.max(sres.abs());
+            scale = scale.max(abs);
+            balance[2] += sres / length;
+        }
+        out_cells.push((part.t, full(&x)));
+    }
+    let defect = if scale > 0.0 { worst / scale } else { 0.0 };
     PatchOut {
         cells: out_cells,
         unknowns: nvar,
@@ -810,6 +978,23 @@ fn solve_patch(
             flow::complement(&[[0.0, 0.0, 1.0]], PATCH_DEPENDENT_ROW)
         },
     }
+}
+
+/// One cell of a patch, kept from assembly to the recovery of its coefficients.
+struct CellPart {
+    t: u32,
+    /// Local edge DOF (row r, e < 3(k+1)) → affine expression in the patch unknowns.
+    emap: [[Lin; 9]; 2],
+    /// c₀ = T ē₀ + t₀ per row (condense.rs), local index r·nloc + i.
+    c0: [f64; 2 * MAX_RT_DOFS],
+    /// The divergence rows' right-hand sides ∫ target_r q̂ (row r, moment q).
+    g: [[f64; 6]; 2],
+    /// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions.
+    srow: [f64; 2 * MAX_RT_DOFS],
+    /// First patch unknown of the cell's free interior values (row r at + r·nz).
+    kernel: usize,
+    /// e_x, e_y, (x − x₀)^⊥/L in the moments 1, ξ, η per row (exact on straight cells).
+    rigid: [[[f64; 3]; 2]; 3],
 }
 
 #[inline]
