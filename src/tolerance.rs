@@ -155,7 +155,9 @@ pub const PATCH_REORTHOGONALISE: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// equality-reduced inverse K, is below this fraction of (M⁻¹)_pp counts as linearly dependent on
 /// the working set and the equalities (`reconstruct::qp`): K is formed as M⁻¹ − M⁻¹Qᵀ S⁻¹ Q M⁻¹,
 /// whose cancellation leaves errors ~1e-16 × cond(M) ≤ ~1e-12 relative on the patch matrices,
-/// while a genuinely independent bound has a ratio well above 1e-6.
+/// while a genuinely independent bound has a ratio well above 1e-6. Only with equality rows: in
+/// the all-rows-penalised fallback (M + ρQᵀQ, no rows left) a bound pinned by the penalty has a
+/// ratio ~M_pp/ρ, below this, yet no bound can depend on others there (`reconstruct::qp`).
 pub const PATCH_QP_DEPENDENT_BOUND: f64 = 1e-9;
 
 /// A bound slack x_i counts as violated above this fraction of max|x₀| (the equality-constrained

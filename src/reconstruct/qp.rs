@@ -36,8 +36,10 @@
 //! caller's "hard" rows (the first ones; for the patches the equilibrium rows) exact and the
 //! others (the contact equalities) as a quadratic penalty (weight [`PATCH_QP_PENALTY`] relative
 //! to M), i.e. in the least-squares sense among the points satisfying the rest; if that is
-//! still infeasible, with all rows penalised. The result says `feasible: false`, with the
-//! defect showing the violation.
+//! still infeasible, with all rows penalised. That last problem has bounds only and is always
+//! feasible, so there no bound counts as dependent unless its Schur complement is not positive
+//! (the penalty makes those of pinned bounds ~1/ρ, which the relative dependence test took for
+//! zero). The result says `feasible: false`, with the defect showing the violation.
 //!
 //! Cost: one Cholesky M = LLᵀ (n³/3), one forward substitution of b, Qᵀ and the bounds' unit
 //! vectors (n² each), S = VᵀV with V = L⁻¹Qᵀ and its Cholesky, one back substitution of 1 + m
@@ -329,7 +331,19 @@ fn equality_bound_qp(
         .map(|ij| out[(bounded[ij / nb], 1 + ij % nb)])
         .collect();
     let h: Vec<f64> = bounded.iter().map(|&p| x[p]).collect();
-    let dep: Vec<f64> = wdiag.iter().map(|w| PATCH_QP_DEPENDENT_BOUND * w).collect();
+    // A bound can depend on the working set only through the equality rows: without them
+    // G = Eᵀ M⁻¹ E is a principal submatrix of M⁻¹, positive definite, and a small Schur
+    // complement is a stiff direction, not a dependence. That is the all-rows-penalised
+    // fallback of `solve` (M + ρQᵀQ): a bound the penalised rows and the working set pin has
+    // a Schur complement ~1/ρ, below PATCH_QP_DEPENDENT_BOUND of its diagonal entry whenever
+    // M_pp < 1e-3 max M_ii, and the always-feasible problem was declared infeasible. There only
+    // a non-positive Schur complement (round-off) counts as dependent.
+    let relative = if r == 0 {
+        0.0
+    } else {
+        PATCH_QP_DEPENDENT_BOUND
+    };
+    let dep: Vec<f64> = wdiag.iter().map(|w| relative * w).collect();
     let tol = PATCH_QP_FEASIBILITY * x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let mut lambda = vec![0.0; nb];
     let (outcome, active) = dual_active_set(nb, &g, &h, &dep, tol, &mut lambda);
@@ -617,6 +631,28 @@ mod tests {
         // Singular M and NaN-free output anyway.
         let res = run(2, &[0.0; 4], &[1.0, 1.0], &[], &[0]);
         assert!(res.x.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn penalised_fallback_without_rows_is_feasible() {
+        // x₀ + x₁ = 1 with x₀, x₁ ≤ 0 is incompatible; the fallback minimises, with the bounds
+        // hard, ½xᵀMx + ½ρ(x₀ + x₁ − 1)²/2 (the row orthonormalised: q = (1, 1, 0)/√2,
+        // d_q = 1/√2), ρ = PATCH_QP_PENALTY × max M_ii = 1e10 for
+        //     M = [[1, 0, c], [0, ½, 0], [c, 0, 1e4]],   c = 50 (positive definite: 1e4 > c²).
+        // By hand its minimiser is x = 0: at 0 the gradient is (−ρ/2, −ρ/2, 0), so both bounds
+        // are active with multipliers ρ/2 ≥ 0, and x₂ = −c x₀/1e4 = 0. The two bounds are
+        // independent (no equality rows are left), but the second one's Schur complement
+        // 1/(ρ/2 + O(1)) ≈ 2e-10 is below 1e-9 of its diagonal entry ~0.5: taken for a
+        // dependence, it made the fallback look infeasible too, and the first attempt's last
+        // iterate came back instead: x₀ = 1 from the row (clipped to 0), x₂ = −c/1e4 = −5e-3.
+        let c = 50.0;
+        let m = vec![1.0, 0.0, c, 0.0, 0.5, 0.0, c, 0.0, 1e4];
+        let rows = vec![(vec![1.0, 1.0, 0.0], 1.0)];
+        let res = run(3, &m, &[0.0; 3], &rows, &[0, 1]);
+        assert!(!res.feasible && res.settled, "{res:?}");
+        assert!(res.x.iter().all(|v| v.abs() < 1e-6), "{res:?}");
+        // The defect is the whole row: |0 − 1| against the row scale 1.
+        assert!((res.defect - 1.0).abs() < 1e-6, "{res:?}");
     }
 
     /// xorshift64*, in [−1, 1).
