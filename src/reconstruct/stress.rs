@@ -392,13 +392,12 @@ pub fn reconstruct(
                         }
                         let v = ca * cc * kv;
                         match (fixed[ga], fixed[gc]) {
-                            (None, None) if ga >= gc => {
-                                if !k.add(ga, gc, v) {
-                                    return Err(format!(
-                                        "internal: unknowns {ga} and {gc} of one cell are not \
-                                         coupled in the pattern"
-                                    ));
-                                }
+                            // The guard adds the entry; it fails only if the pattern lacks it.
+                            (None, None) if ga >= gc && !k.add(ga, gc, v) => {
+                                return Err(format!(
+                                    "internal: unknowns {ga} and {gc} of one cell are not \
+                                     coupled in the pattern"
+                                ));
                             }
                             (None, Some(val)) => b[ga] -= v * val,
                             _ => {}

@@ -430,6 +430,8 @@ fn dense_active_set(
 }
 
 #[cfg(test)]
+// Dense reference code indexes rows and columns by number.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
 

@@ -161,14 +161,15 @@ impl Factor {
         for (new, &old) in self.fwd.iter().enumerate().take(last) {
             z[(new, 0)] = r[old];
         }
-        let mut mem = MemBuffer::try_new(sup.symbolic().solve_in_place_scratch::<f64>(1, self.par))
+        let par = self.par;
+        let mut mem = MemBuffer::try_new(sup.symbolic().solve_in_place_scratch::<f64>(1, par))
             .map_err(|_| out_of_memory("solve"))?;
         let stack = MemStack::new(&mut mem);
-        sup.l_solve_with_conj(Conj::No, z.as_mut(), self.par, stack);
+        sup.l_solve_with_conj(Conj::No, z.as_mut(), par, stack);
         for new in last..n {
             z[(new, 0)] = 0.0;
         }
-        sup.l_transpose_solve_with_conj(Conj::No, z.as_mut(), self.par, stack);
+        sup.l_transpose_solve_with_conj(Conj::No, z.as_mut(), par, stack);
         let mut x = vec![0.0; n];
         for (new, &old) in self.fwd.iter().enumerate().take(last) {
             x[old] = z[(new, 0)];
