@@ -21,6 +21,8 @@
 //! cone |τ_t| ≤ 𝔉|τ_n| at each contact DOF point becomes two bounds after the change of
 //! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
 
+use rayon::prelude::*;
+
 use super::submesh::SubMesh;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
@@ -43,6 +45,10 @@ struct Input<'a> {
     length_scale: f64,
     order: RtOrder,
 }
+
+/// Cells whose element matrices are computed in parallel before being added to K: enough
+/// work per batch for the thread pool, a few MiB of element matrices.
+const ELEMENT_CHUNK: usize = 4096;
 
 /// Cap on active-set changes.
 pub const MAX_ITERATIONS: usize = MAX_ACTIVE_SET_ITERATIONS;
@@ -272,7 +278,8 @@ pub fn reconstruct(
     let mut k = SymCsc::from_groups(n, &group_ptr, &members)?;
     drop((group_ptr, members));
     let mut b = vec![0.0; n];
-    for t in 0..ntri {
+    // The element matrix and vector of cell t: K_loc (lower triangle, row-major) and b_loc.
+    let element = |t: usize| -> (Vec<f64>, Vec<f64>) {
         let parent = sub.parent[t] as usize;
         let (fam, half) = (mesh.family[parent], sub.index[t] as usize);
         let x = mesh.coords(parent);
@@ -369,38 +376,48 @@ pub fn reconstruct(
                 }
             }
         }
-        // Scatter.
-        let maps: Vec<[(usize, f64); 2]> =
-            (0..nl).map(|a| map_local(t, a / nloc, a % nloc)).collect();
-        for a in 0..nl {
-            for &(ga, ca) in &maps[a] {
-                if ga == usize::MAX || ca == 0.0 {
-                    continue;
-                }
-                if fixed[ga].is_none() {
-                    b[ga] += ca * bloc[a];
-                }
-                for c in 0..nl {
-                    let kv = if c <= a {
-                        kloc[a * nl + c]
-                    } else {
-                        kloc[c * nl + a]
-                    };
-                    for &(gc, cc) in &maps[c] {
-                        if gc == usize::MAX || cc == 0.0 {
-                            continue;
-                        }
-                        let v = ca * cc * kv;
-                        match (fixed[ga], fixed[gc]) {
-                            // The guard adds the entry; it fails only if the pattern lacks it.
-                            (None, None) if ga >= gc && !k.add(ga, gc, v) => {
-                                return Err(format!(
-                                    "internal: unknowns {ga} and {gc} of one cell are not \
-                                     coupled in the pattern"
-                                ));
+        (kloc, bloc)
+    };
+    // Element matrices in parallel, a chunk of cells at a time (bounded memory); the scatter
+    // into the shared K stays serial.
+    for first in (0..ntri).step_by(ELEMENT_CHUNK) {
+        let last = (first + ELEMENT_CHUNK).min(ntri);
+        let elements: Vec<(Vec<f64>, Vec<f64>)> =
+            (first..last).into_par_iter().map(element).collect();
+        for (t, (kloc, bloc)) in (first..last).zip(elements) {
+            // Scatter.
+            let maps: Vec<[(usize, f64); 2]> =
+                (0..nl).map(|a| map_local(t, a / nloc, a % nloc)).collect();
+            for a in 0..nl {
+                for &(ga, ca) in &maps[a] {
+                    if ga == usize::MAX || ca == 0.0 {
+                        continue;
+                    }
+                    if fixed[ga].is_none() {
+                        b[ga] += ca * bloc[a];
+                    }
+                    for c in 0..nl {
+                        let kv = if c <= a {
+                            kloc[a * nl + c]
+                        } else {
+                            kloc[c * nl + a]
+                        };
+                        for &(gc, cc) in &maps[c] {
+                            if gc == usize::MAX || cc == 0.0 {
+                                continue;
                             }
-                            (None, Some(val)) => b[ga] -= v * val,
-                            _ => {}
+                            let v = ca * cc * kv;
+                            match (fixed[ga], fixed[gc]) {
+                                // The guard adds the entry; it fails only if the pattern lacks it.
+                                (None, None) if ga >= gc && !k.add(ga, gc, v) => {
+                                    return Err(format!(
+                                        "internal: unknowns {ga} and {gc} of one cell are not \
+                                         coupled in the pattern"
+                                    ));
+                                }
+                                (None, Some(val)) => b[ga] -= v * val,
+                                _ => {}
+                            }
                         }
                     }
                 }
