@@ -55,8 +55,8 @@ impl Lower {
 /// the entries K_ij in the same order.
 pub struct SymCsc {
     pub n: usize,
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
+    pub(crate) col_ptr: Vec<usize>,
+    pub(crate) row_idx: Vec<usize>,
     pub values: Vec<f64>,
 }
 
@@ -172,7 +172,7 @@ impl SymCsc {
 
     /// Calls `f(i, j, v)` for every stored entry (i ≥ j) of the lower triangle.
     #[inline]
-    fn for_each(&self, mut f: impl FnMut(usize, usize, f64)) {
+    pub(crate) fn for_each(&self, mut f: impl FnMut(usize, usize, f64)) {
         for j in 0..self.n {
             for p in self.col_ptr[j]..self.col_ptr[j + 1] {
                 f(self.row_idx[p], j, self.values[p]);
