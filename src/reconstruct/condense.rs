@@ -34,7 +34,7 @@
 //! ~50 unknowns on interior P2 patches (and the rows from ~80 to ~20), the same minimiser.
 //!
 //! **Affine compliance matrix.** For the compliance A and row-wise τ = e_r ⊗ φ_i,
-//! (Aτ_{ri}, τ_{r'j})_T = Σ_{s,s'} A_{(rs),(r's')} ∫_T φ_i[s] φ_j[s'], and on an affine cell
+//! `(Aτ_ri, τ_r'j)_T = Σ_{s,s'} A_(rs),(r's') ∫_T φ_i[s] φ_j[s']`, and on an affine cell
 //!
 //! ```text
 //! ∫_T φ_i[s] φ_j[s'] = (1/det J) Σ_{a,b} J_sa J_s'b G^{ab}_ij,      G^{ab}_ij = ∫_T̂ φ̂_i[a] φ̂_j[b],
@@ -95,7 +95,7 @@ pub struct Reference {
     pub left: Vec<f64>,
     /// G^{ab} (index 2a + b), nloc × nloc each.
     pub gram: [Vec<f64>; 4],
-    /// ∫_T̂ q̂_m φ̂_i for q̂ = 1, ξ, η (index [i][m]).
+    /// ∫_T̂ q̂_m φ̂_i for q̂ = 1, ξ, η (indexed `[i][m]`).
     pub first: Vec<[[f64; 2]; 3]>,
 }
 

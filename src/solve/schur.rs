@@ -120,7 +120,7 @@ impl Factor {
         })
     }
 
-    /// The constrained unknowns in the factor's order: y_p = x_{constrained()[p]}, the order
+    /// The constrained unknowns in the factor's order: `y_p = x_{constrained()[p]}`, the order
     /// of the rows and columns of [`Factor::schur`].
     pub fn constrained(&self) -> Vec<usize> {
         self.fwd[self.nf..].to_vec()
