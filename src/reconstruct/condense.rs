@@ -58,9 +58,15 @@ use crate::material::Elastic;
 use crate::quadrature::triangle_rule;
 use crate::tolerance::CONDENSATION_RANK;
 
+/// Largest number of edge DOFs per row of a cell (RT_2: 3 × 3), of reduced unknowns per row
+/// (RT_2: 9 edge values + 1 kernel value) and of test moments per row (P_2: 6).
+pub const MAX_EDGE_DOFS: usize = 9;
+pub const MAX_REDUCED: usize = MAX_EDGE_DOFS + 1;
+pub const MAX_MOMENTS: usize = 6;
+
 /// Test monomials q̂ of degree ≤ 2 (the first (k+1)(k+2)/2 are used).
 #[inline]
-pub fn test_monomials(xi: [f64; 2]) -> [f64; 6] {
+pub fn test_monomials(xi: [f64; 2]) -> [f64; MAX_MOMENTS] {
     [
         1.0,
         xi[0],

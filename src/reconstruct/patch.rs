@@ -33,7 +33,8 @@
 
 use rayon::prelude::*;
 
-use super::{condense, flow};
+use super::condense::{self, MAX_EDGE_DOFS, MAX_MOMENTS, MAX_REDUCED};
+use super::flow;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
 use crate::geometry::Shape;
@@ -558,7 +559,7 @@ fn solve_patch(
     let mut mloc = vec![0.0; nl * nl];
     let mut mt = vec![0.0; nl * nr];
     let mut mred = vec![0.0; nr * nr];
-    let mut rmap = [Lin::default(); 2 * (9 + 1)];
+    let mut rmap = [Lin::default(); 2 * MAX_REDUCED];
     for (ci, &(t, j)) in cells.iter().enumerate() {
         let t = t as usize;
         let j = j as usize;
@@ -569,9 +570,9 @@ fn solve_patch(
         let affine = sh == Shape::Affine;
         let mut part = CellPart {
             t: t as u32,
-            emap: [[Lin::default(); 9]; 2],
+            emap: [[Lin::default(); MAX_EDGE_DOFS]; 2],
             c0: [0.0; 2 * MAX_RT_DOFS],
-            g: [[0.0; 6]; 2],
+            g: [[0.0; MAX_MOMENTS]; 2],
             srow: [0.0; 2 * MAX_RT_DOFS],
             kernel: interior_base + ci * 2 * nz,
             rigid: [[[0.0; 3]; 2]; 3],
@@ -753,7 +754,7 @@ fn solve_patch(
                     .map(|(p, q)| p * q)
                     .sum::<f64>();
         }
-        let mut bred = [0.0; 2 * (9 + 1)];
+        let mut bred = [0.0; 2 * MAX_REDUCED];
         for r in 0..2 {
             for y in 0..nred {
                 let (mut bv, row) = (0.0, r * nred + y);
@@ -819,7 +820,7 @@ fn solve_patch(
             rhs.push(d);
         };
         // The kept rows U₀ᵀ(D c_r − g_r) = 0 per row r.
-        let mut g_red = [0.0; 2 * (9 + 1)];
+        let mut g_red = [0.0; 2 * MAX_REDUCED];
         for r in 0..2 {
             for m0 in 0..re.n0 {
                 g_red.iter_mut().for_each(|v| *v = 0.0);
@@ -906,7 +907,7 @@ fn solve_patch(
         let full = |x: &[f64]| {
             let mut c = [[0.0; MAX_RT_DOFS]; 2];
             for r in 0..2 {
-                let mut y = [0.0; 9 + 1];
+                let mut y = [0.0; MAX_REDUCED];
                 for e in 0..nedge {
                     y[e] = part.emap[r][e].value(x);
                 }
@@ -923,7 +924,7 @@ fn solve_patch(
             c
         };
         let c = full(&legal);
-        let mut res = [[0.0; 6]; 2];
+        let mut res = [[0.0; MAX_MOMENTS]; 2];
         for r in 0..2 {
             for q in 0..nq {
                 let (mut dc, mut abs) = (0.0, 0.0);
@@ -984,11 +985,11 @@ fn solve_patch(
 struct CellPart {
     t: u32,
     /// Local edge DOF (row r, e < 3(k+1)) → affine expression in the patch unknowns.
-    emap: [[Lin; 9]; 2],
+    emap: [[Lin; MAX_EDGE_DOFS]; 2],
     /// c₀ = T ē₀ + t₀ per row (condense.rs), local index r·nloc + i.
     c0: [f64; 2 * MAX_RT_DOFS],
     /// The divergence rows' right-hand sides ∫ target_r q̂ (row r, moment q).
-    g: [[f64; 6]; 2],
+    g: [[f64; MAX_MOMENTS]; 2],
     /// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions.
     srow: [f64; 2 * MAX_RT_DOFS],
     /// First patch unknown of the cell's free interior values (row r at + r·nz).
