@@ -101,6 +101,10 @@ pub struct Reference {
     pub left: Vec<f64>,
     /// G^{ab} (index 2a + b), nloc × nloc each.
     pub gram: [Vec<f64>; 4],
+    /// Tᵀ G^{ab} (nred × nloc) and Tᵀ G^{ab} T (nred × nred): the reduced Gram matrices of
+    /// [`affine_reduced`].
+    pub gram_left: [Vec<f64>; 4],
+    pub gram_red: [Vec<f64>; 4],
     /// ∫_T̂ q̂_m φ̂_i for q̂ = 1, ξ, η (indexed `[i][m]`).
     pub first: Vec<[[f64; 2]; 3]>,
 }
@@ -195,6 +199,28 @@ fn build(order: RtOrder) -> Reference {
                 .sum();
         }
     }
+    let gram_left: [Vec<f64>; 4] = std::array::from_fn(|ab| {
+        let mut out = vec![0.0; nred * nloc];
+        for y in 0..nred {
+            for j in 0..nloc {
+                out[y * nloc + j] = (0..nloc)
+                    .map(|c| transform[c * nred + y] * gram[ab][c * nloc + j])
+                    .sum();
+            }
+        }
+        out
+    });
+    let gram_red: [Vec<f64>; 4] = std::array::from_fn(|ab| {
+        let mut out = vec![0.0; nred * nred];
+        for y in 0..nred {
+            for y2 in 0..nred {
+                out[y * nred + y2] = (0..nloc)
+                    .map(|j| gram_left[ab][y * nloc + j] * transform[j * nred + y2])
+                    .sum();
+            }
+        }
+        out
+    });
     Reference {
         nloc,
         nedge,
@@ -209,6 +235,8 @@ fn build(order: RtOrder) -> Reference {
         kept,
         left,
         gram,
+        gram_left,
+        gram_red,
         first,
     }
 }
@@ -231,22 +259,105 @@ pub fn mean_value(re: &Reference, jac: [[[f64; 2]; 2]; 3], i: usize) -> [f64; 2]
     out
 }
 
+/// A as a 4 × 4 matrix on (τ_xx, τ_xy, τ_yx, τ_yy).
+fn compliance_matrix(el: &Elastic) -> [[f64; 4]; 4] {
+    let mut a = [[0.0; 4]; 4];
+    for q in 0..4 {
+        let mut e = [0.0; 4];
+        e[q] = 1.0;
+        let col = el.compliance(e);
+        for p in 0..4 {
+            a[p][q] = col[p];
+        }
+    }
+    a
+}
+
+/// The coefficients C^{rr'}_{ab} = (1/det J) Σ_{s,s'} A_(rs),(r's') J_sa J_s'b of module doc's
+/// affine compliance matrix: (Aτ_ri, τ_r'j)_T = Σ_ab C^{rr'}_ab G^{ab}_ij.
+fn affine_coefficients(jac: &Jacobian, el: &Elastic) -> [[[f64; 4]; 2]; 2] {
+    let a = compliance_matrix(el);
+    let jm = jac.matrix;
+    let inv = 1.0 / jac.det;
+    let mut out = [[[0.0; 4]; 2]; 2];
+    for (r, row) in out.iter_mut().enumerate() {
+        for (r2, c) in row.iter_mut().enumerate() {
+            for s in 0..2 {
+                for s2 in 0..2 {
+                    let apq = a[2 * r + s][2 * r2 + s2];
+                    if apq == 0.0 {
+                        continue;
+                    }
+                    for ab in 0..4 {
+                        c[ab] += apq * jm[s][ab / 2] * jm[s2][ab % 2] * inv;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The condensed compliance matrix Tᵀ M T (row-major (2·nred)², index r·nred + y) of an affine
+/// cell and Tᵀ M c₀ (2·nred) for the local coefficients `c0` (index r·nloc + i), from the
+/// reduced Gram matrices: (TᵀMT)^{rr'} = Σ_ab C^{rr'}_ab Tᵀ G^{ab} T (module doc, "affine
+/// compliance matrix"). The same numbers as Tᵀ [`affine_mass`] T without the (2·nloc)² matrix.
+pub fn affine_reduced(
+    re: &Reference,
+    jac: &Jacobian,
+    el: &Elastic,
+    c0: &[f64],
+    mred: &mut [f64],
+    tmc0: &mut [f64],
+) {
+    let (nloc, nred) = (re.nloc, re.nred);
+    let nr = 2 * nred;
+    let coef = affine_coefficients(jac, el);
+    // (Tᵀ G^{ab} c₀_r') per ab and r'.
+    let mut gc = [[[0.0; MAX_REDUCED]; 2]; 4];
+    for (ab, g) in gc.iter_mut().enumerate() {
+        for (r2, out) in g.iter_mut().enumerate() {
+            let c = &c0[r2 * nloc..(r2 + 1) * nloc];
+            for (y, o) in out.iter_mut().enumerate().take(nred) {
+                let row = &re.gram_left[ab][y * nloc..(y + 1) * nloc];
+                *o = row.iter().zip(c).map(|(p, q)| p * q).sum();
+            }
+        }
+    }
+    for r in 0..2 {
+        for y in 0..nred {
+            let mut v = 0.0;
+            for r2 in 0..2 {
+                for ab in 0..4 {
+                    v += coef[r][r2][ab] * gc[ab][r2][y];
+                }
+            }
+            tmc0[r * nred + y] = v;
+        }
+        for r2 in 0..2 {
+            let c = coef[r][r2];
+            for y in 0..nred {
+                let out = &mut mred[(r * nred + y) * nr + r2 * nred..][..nred];
+                let g = [
+                    &re.gram_red[0][y * nred..(y + 1) * nred],
+                    &re.gram_red[1][y * nred..(y + 1) * nred],
+                    &re.gram_red[2][y * nred..(y + 1) * nred],
+                    &re.gram_red[3][y * nred..(y + 1) * nred],
+                ];
+                for (y2, o) in out.iter_mut().enumerate() {
+                    *o = c[0] * g[0][y2] + c[1] * g[1][y2] + c[2] * g[2][y2] + c[3] * g[3][y2];
+                }
+            }
+        }
+    }
+}
+
 /// The local compliance matrix (Aτ_a, τ_c)_T of an affine cell with Jacobian `jac`, full
 /// (2·nloc)², local index a = r·nloc + i (module doc).
 pub fn affine_mass(re: &Reference, jac: &Jacobian, el: &Elastic, out: &mut [f64]) {
     let nloc = re.nloc;
     let nl = 2 * nloc;
-    // A as a 4 × 4 matrix on (τ_xx, τ_xy, τ_yx, τ_yy).
-    let mut a = [[0.0; 4]; 4];
-    for (q, col) in (0..4).map(|q| {
-        let mut e = [0.0; 4];
-        e[q] = 1.0;
-        (q, el.compliance(e))
-    }) {
-        for p in 0..4 {
-            a[p][q] = col[p];
-        }
-    }
+    let a = compliance_matrix(el);
     let jm = jac.matrix;
     let inv = 1.0 / jac.det;
     // W^{ss'}_ij = (1/det) Σ_ab J_sa J_s'b G^{ab}_ij.
@@ -390,6 +501,36 @@ mod tests {
             let scale = slow.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             for (f, s) in fast.iter().zip(&slow) {
                 assert!((f - s).abs() < 1e-12 * scale, "{order:?}: {f} vs {s}");
+            }
+            // The condensed form: Tᵀ M T and Tᵀ M c₀ against the products of the quadrature
+            // matrix, for a random c₀.
+            let (nloc, nred) = (re.nloc, re.nred);
+            let nr = 2 * nred;
+            let c0: Vec<f64> = (0..nl).map(|i| (i as f64 * 0.71 - 0.3).sin()).collect();
+            let (mut mred, mut tmc0) = (vec![0.0; nr * nr], vec![0.0; nr]);
+            affine_reduced(re, &jac, &el, &c0, &mut mred, &mut tmc0);
+            let t = |a: usize, y: usize| {
+                // T block-diagonal over the rows: local a = r·nloc + i, reduced y = r'·nred + j.
+                if a / nloc == y / nred {
+                    re.transform[(a % nloc) * nred + y % nred]
+                } else {
+                    0.0
+                }
+            };
+            for y in 0..nr {
+                let want: f64 = (0..nl)
+                    .map(|a| t(a, y) * (0..nl).map(|c| slow[a * nl + c] * c0[c]).sum::<f64>())
+                    .sum();
+                assert!((tmc0[y] - want).abs() < 1e-11 * scale, "{order:?} TᵀMc₀ {y}");
+                for y2 in 0..nr {
+                    let want: f64 = (0..nl)
+                        .map(|a| {
+                            t(a, y) * (0..nl).map(|c| slow[a * nl + c] * t(c, y2)).sum::<f64>()
+                        })
+                        .sum();
+                    let got = mred[y * nr + y2];
+                    assert!((got - want).abs() < 1e-11 * scale, "{order:?} TᵀMT {y} {y2}");
+                }
             }
         }
     }

@@ -221,25 +221,27 @@ pub fn reconstruct(
         .fold(0.0f64, f64::max)
         .max(f64::MIN_POSITIVE);
     let no_extra: Vec<Vec<Extra>> = Vec::new();
-    let solve_all = |extra: &Vec<Vec<Extra>>| -> Vec<PatchOut> {
+    let setup = PatchSetup {
+        order,
+        condition: &condition,
+        weak_symmetry,
+        origin,
+        length,
+    };
+    // `balance_only`: patches whose balance is independent of the solution only give it (the
+    // flows need nothing else), and are solved once, with their final loads, after the passes.
+    let solve_all = |extra: &Vec<Vec<Extra>>, balance_only: bool| -> Vec<PatchOut> {
         vertices
             .par_iter()
             .with_min_len(64)
             .map(|&v| {
                 let cells = &members[count[v] as usize..count[v + 1] as usize];
                 let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
-                let setup = PatchSetup {
-                    order,
-                    condition: &condition,
-                    weak_symmetry,
-                    origin,
-                    length,
-                };
-                solve_patch(ctx, u, &setup, v as u32, cells, ex)
+                solve_patch(ctx, u, &setup, v as u32, cells, ex, balance_only)
             })
             .collect()
     };
-    let mut outs = solve_all(&no_extra);
+    let mut outs = solve_all(&no_extra, true);
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
     // residual of the new solution is balanced again, up to FLOW_PASSES times.
@@ -283,8 +285,24 @@ pub fn reconstruct(
                 extra[b as usize].push(Extra { cell: t, c, centre });
             }
         }
-        outs = solve_all(&extra);
+        outs = solve_all(&extra, true);
         passes += 1;
+    }
+    // The patches that only gave their balance, solved with their final loads.
+    let finals: Vec<(usize, PatchOut)> = outs
+        .par_iter()
+        .enumerate()
+        .with_min_len(64)
+        .filter(|(_, o)| !o.solved)
+        .map(|(i, _)| {
+            let v = vertices[i];
+            let cells = &members[count[v] as usize..count[v + 1] as usize];
+            let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
+            (i, solve_patch(ctx, u, &setup, v as u32, cells, ex, false))
+        })
+        .collect();
+    for (i, o) in finals {
+        outs[i] = o;
     }
     let balanced = passes > 0;
     let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
@@ -322,6 +340,9 @@ pub fn reconstruct(
 }
 
 struct PatchOut {
+    /// False when only the balance was computed (`solve_patch`'s `balance_only` on a patch
+    /// whose balance does not depend on its unknowns): `cells` is empty.
+    solved: bool,
     cells: Vec<(u32, [[f64; MAX_RT_DOFS]; 2])>,
     unknowns: usize,
     active: usize,
@@ -409,6 +430,7 @@ fn solve_patch(
     vertex: u32,
     cells: &[(u32, u8)],
     extra: &[Extra],
+    balance_only: bool,
 ) -> PatchOut {
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
     let (x0, length) = (setup.origin, setup.length);
@@ -542,6 +564,14 @@ fn solve_patch(
             edge_vals.push(vals);
         }
     }
+    // A patch without inequalities on straight cells: its rigid-motion balance does not depend
+    // on the unknowns (module doc of `reconstruct`), so it can be had without the solve.
+    let linear = bounded.is_empty()
+        && zero_vars.is_empty()
+        && cells
+            .iter()
+            .all(|&(t, _)| mesh.shape[t as usize] == Shape::Affine);
+    let quick = balance_only && linear;
     // Interior values: condensed (condense.rs), dim ker D_I free values per cell and row.
     let re = condense::reference(order);
     let (nloc, nedge, nq, nz, nred) = (re.nloc, re.nedge, re.nq, re.nz, re.nred);
@@ -604,12 +634,7 @@ fn solve_patch(
             part.srow[i] = b;
             part.srow[nloc + i] = -a;
         }
-        if affine {
-            // Within the straightness tolerance of `Shape::Affine`, the Jacobian at the
-            // centroid: the mass matrix only chooses among the equilibrated stresses.
-            let jac = sub_point(fam, &x[..fam.nodes()], sh, 0, [1.0 / 3.0; 2]).jac;
-            condense::affine_mass(re, &jac, &el, &mut mloc);
-        } else {
+        if !affine {
             mloc.iter_mut().for_each(|v| *v = 0.0);
         }
         for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
@@ -646,6 +671,9 @@ fn solve_patch(
                 for q in 0..nq {
                     part.g[r][q] += w * target[r] * qv[q];
                 }
+            }
+            if quick {
+                continue;
             }
             let (v, _) = rt::piola(order, &jac, xi);
             for r in 0..2 {
@@ -729,47 +757,86 @@ fn solve_patch(
                 part.c0[r * nloc + nedge + i] = v;
             }
         }
+        {
+            let (p0, p1, p2) = (x[0], x[1], x[2]);
+            let (dx1, dx2) = (
+                [p1[0] - p0[0], p1[1] - p0[1]],
+                [p2[0] - p0[0], p2[1] - p0[1]],
+            );
+            part.rigid = [
+                [[1.0, 0.0, 0.0], [0.0; 3]],
+                [[0.0; 3], [1.0, 0.0, 0.0]],
+                [
+                    [
+                        -(p0[1] - x0[1]) / length,
+                        -dx1[1] / length,
+                        -dx2[1] / length,
+                    ],
+                    [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
+                ],
+            ];
+        }
+        if quick {
+            parts.push(part);
+            continue;
+        }
         // Reduced local problem: Tᵀ M T and Tᵀ(b − M c₀), T block-diagonal over the rows.
-        for a in 0..nl {
-            let ma = &mloc[a * nl..(a + 1) * nl];
-            for r2 in 0..2 {
+        let mut bred = [0.0; 2 * MAX_REDUCED];
+        if affine {
+            // Within the straightness tolerance of `Shape::Affine`, the Jacobian at the
+            // centroid: the mass matrix only chooses among the equilibrated stresses.
+            let jac = sub_point(fam, &x[..fam.nodes()], sh, 0, [1.0 / 3.0; 2]).jac;
+            let mut tmc0 = [0.0; 2 * MAX_REDUCED];
+            condense::affine_reduced(re, &jac, &el, &part.c0[..nl], &mut mred, &mut tmc0);
+            for r in 0..2 {
                 for y in 0..nred {
-                    let mut v = 0.0;
-                    for c in 0..nloc {
-                        let tc = re.transform[c * nred + y];
-                        if tc != 0.0 {
-                            v += ma[r2 * nloc + c] * tc;
-                        }
-                    }
-                    mt[a * nr + r2 * nred + y] = v;
+                    let tb: f64 = (0..nloc)
+                        .map(|c| re.transform[c * nred + y] * bloc[r * nloc + c])
+                        .sum();
+                    bred[r * nred + y] = tb - tmc0[r * nred + y];
                 }
             }
-        }
-        let mut rb = [0.0; 2 * MAX_RT_DOFS];
-        for a in 0..nl {
-            let ma = &mloc[a * nl..(a + 1) * nl];
-            rb[a] = bloc[a]
-                - ma.iter()
-                    .zip(&part.c0[..nl])
-                    .map(|(p, q)| p * q)
-                    .sum::<f64>();
-        }
-        let mut bred = [0.0; 2 * MAX_REDUCED];
-        for r in 0..2 {
-            for y in 0..nred {
-                let (mut bv, row) = (0.0, r * nred + y);
-                for c in 0..nloc {
-                    let tc = re.transform[c * nred + y];
-                    if tc == 0.0 {
-                        continue;
-                    }
-                    bv += tc * rb[r * nloc + c];
-                    let mr = &mt[(r * nloc + c) * nr..(r * nloc + c + 1) * nr];
-                    for (acc, v) in mred[row * nr..(row + 1) * nr].iter_mut().zip(mr) {
-                        *acc += tc * v;
+        } else {
+            for a in 0..nl {
+                let ma = &mloc[a * nl..(a + 1) * nl];
+                for r2 in 0..2 {
+                    for y in 0..nred {
+                        let mut v = 0.0;
+                        for c in 0..nloc {
+                            let tc = re.transform[c * nred + y];
+                            if tc != 0.0 {
+                                v += ma[r2 * nloc + c] * tc;
+                            }
+                        }
+                        mt[a * nr + r2 * nred + y] = v;
                     }
                 }
-                bred[row] = bv;
+            }
+            let mut rb = [0.0; 2 * MAX_RT_DOFS];
+            for a in 0..nl {
+                let ma = &mloc[a * nl..(a + 1) * nl];
+                rb[a] = bloc[a]
+                    - ma.iter()
+                        .zip(&part.c0[..nl])
+                        .map(|(p, q)| p * q)
+                        .sum::<f64>();
+            }
+            for r in 0..2 {
+                for y in 0..nred {
+                    let (mut bv, row) = (0.0, r * nred + y);
+                    for c in 0..nloc {
+                        let tc = re.transform[c * nred + y];
+                        if tc == 0.0 {
+                            continue;
+                        }
+                        bv += tc * rb[r * nloc + c];
+                        let mr = &mt[(r * nloc + c) * nr..(r * nloc + c + 1) * nr];
+                        for (acc, v) in mred[row * nr..(row + 1) * nr].iter_mut().zip(mr) {
+                            *acc += tc * v;
+                        }
+                    }
+                    bred[row] = bv;
+                }
             }
         }
         // Reduced local unknown (row r, y) → patch unknowns.
@@ -853,25 +920,6 @@ fn solve_patch(
                 .sum::<f64>();
             push_row(&g_red[..nr], d);
         }
-        {
-            let (p0, p1, p2) = (x[0], x[1], x[2]);
-            let (dx1, dx2) = (
-                [p1[0] - p0[0], p1[1] - p0[1]],
-                [p2[0] - p0[0], p2[1] - p0[1]],
-            );
-            part.rigid = [
-                [[1.0, 0.0, 0.0], [0.0; 3]],
-                [[0.0; 3], [1.0, 0.0, 0.0]],
-                [
-                    [
-                        -(p0[1] - x0[1]) / length,
-                        -dx1[1] / length,
-                        -dx2[1] / length,
-                    ],
-                    [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
-                ],
-            ];
-        }
         parts.push(part);
     }
     // The contact equalities come last: relaxed first if the patch problem is infeasible.
@@ -888,7 +936,17 @@ fn solve_patch(
         settled,
         feasible,
         defect: _,
-    } = qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded);
+    } = if quick {
+        qp::QpResult {
+            x: vec![0.0; nvar],
+            active: 0,
+            settled: true,
+            feasible: true,
+            defect: 0.0,
+        }
+    } else {
+        qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded)
+    };
     // The rigid-motion moments of the constraint residual (flow.rs's e_a): with the rows
     // (div τ − target, q)_T and ∫_T as τ, e_i = ∫(target − div τ)·ρ_i, plus ∫ as τ/L for the
     // rotation (the divergence theorem: ∫ div τ·ρ₃ = ∫_∂ τn·ρ₃ + ∫ as τ).
@@ -901,6 +959,8 @@ fn solve_patch(
         legal[z] = 0.0;
     }
     let mut balance = [0.0; 3];
+    // Σ of the magnitudes that make up each balance: its round-off scale.
+    let mut balance_scale = [0.0f64; 3];
     let (mut worst, mut scale) = (0.0f64, 0.0f64);
     let mut out_cells = Vec::with_capacity(parts.len());
     for part in &parts {
@@ -938,11 +998,16 @@ fn solve_patch(
                 scale = scale.max(abs + part.g[r][q].abs());
             }
         }
-        for (bi, ci) in balance.iter_mut().zip(&part.rigid) {
+        for ((bi, bs), ci) in balance
+            .iter_mut()
+            .zip(balance_scale.iter_mut())
+            .zip(&part.rigid)
+        {
             for (r, cr) in ci.iter().enumerate() {
                 for (q, &cq) in cr.iter().enumerate() {
                     if cq != 0.0 {
                         *bi -= cq * res[r][q];
+                        *bs += (cq * res[r][q]).abs();
                     }
                 }
             }
@@ -959,11 +1024,25 @@ fn solve_patch(
             worst = worst.max(sres.abs());
             scale = scale.max(abs);
             balance[2] += sres / length;
+            balance_scale[2] += abs / length;
         }
-        out_cells.push((part.t, full(&x)));
+        if !quick {
+            out_cells.push((part.t, full(&x)));
+        }
     }
-    let defect = if scale > 0.0 { worst / scale } else { 0.0 };
+    // Without the solve, the defect the solve would leave is the balance relative to its
+    // terms (a balanced patch of this kind is solvable: design §5.10).
+    let defect = if quick {
+        let b = balance.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let s = balance_scale.iter().fold(0.0f64, |m, v| m.max(*v));
+        if s > 0.0 { b / s } else { 0.0 }
+    } else if scale > 0.0 {
+        worst / scale
+    } else {
+        0.0
+    };
     PatchOut {
+        solved: !quick,
         cells: out_cells,
         unknowns: nvar,
         active,
