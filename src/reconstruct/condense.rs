@@ -521,7 +521,10 @@ mod tests {
                 let want: f64 = (0..nl)
                     .map(|a| t(a, y) * (0..nl).map(|c| slow[a * nl + c] * c0[c]).sum::<f64>())
                     .sum();
-                assert!((tmc0[y] - want).abs() < 1e-11 * scale, "{order:?} TᵀMc₀ {y}");
+                assert!(
+                    (tmc0[y] - want).abs() < 1e-11 * scale,
+                    "{order:?} TᵀMc₀ {y}"
+                );
                 for y2 in 0..nr {
                     let want: f64 = (0..nl)
                         .map(|a| {
@@ -529,7 +532,10 @@ mod tests {
                         })
                         .sum();
                     let got = mred[y * nr + y2];
-                    assert!((got - want).abs() < 1e-11 * scale, "{order:?} TᵀMT {y} {y2}");
+                    assert!(
+                        (got - want).abs() < 1e-11 * scale,
+                        "{order:?} TᵀMT {y} {y2}"
+                    );
                 }
             }
         }

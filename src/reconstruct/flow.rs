@@ -198,7 +198,11 @@ fn direct(start: &[usize], adj: &[u32], q: &[M3], d: &[[f64; 3]]) -> Option<Vec<
     for m in q {
         for (i, row) in m.iter().enumerate() {
             for (j, &x) in row.iter().enumerate() {
-                let ok = if i == j { x == 0.0 || x == 1.0 } else { x == 0.0 };
+                let ok = if i == j {
+                    x == 0.0 || x == 1.0
+                } else {
+                    x == 0.0
+                };
                 if !ok {
                     return None;
                 }
@@ -269,7 +273,9 @@ fn direct(start: &[usize], adj: &[u32], q: &[M3], d: &[[f64; 3]]) -> Option<Vec<
             }
         }
     }
-    out.iter().all(|p| p.iter().all(|x| x.is_finite())).then_some(out)
+    out.iter()
+        .all(|p| p.iter().all(|x| x.is_finite()))
+        .then_some(out)
 }
 
 /// y = A x on per-vertex 3-vectors.
@@ -390,7 +396,13 @@ mod tests {
         let n = nx * ny;
         let take_rotation = complement(&[[0.0, 0.0, 1.0]], 1e-10);
         let q: Vec<M3> = (0..n)
-            .map(|v| if v % nx == 0 { [[0.0; 3]; 3] } else { take_rotation })
+            .map(|v| {
+                if v % nx == 0 {
+                    [[0.0; 3]; 3]
+                } else {
+                    take_rotation
+                }
+            })
             .collect();
         let d: Vec<[f64; 3]> = (0..n)
             .map(|v| {

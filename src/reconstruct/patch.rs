@@ -230,18 +230,17 @@ pub fn reconstruct(
     };
     // `balance_only`: patches whose balance is independent of the solution only give it (the
     // flows need nothing else), and are solved once, with their final loads, after the passes.
-    let solve_all = |extra: &Vec<Vec<Extra>>, balance_only: bool| -> Vec<PatchOut> {
-        vertices
-            .par_iter()
-            .with_min_len(64)
-            .map(|&v| {
-                let cells = &members[count[v] as usize..count[v + 1] as usize];
-                let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
-                solve_patch(ctx, u, &setup, v as u32, cells, ex, balance_only)
-            })
-            .collect()
+    let solve_one = |i: usize, extra: &[Vec<Extra>], balance_only: bool| -> PatchOut {
+        let v = vertices[i];
+        let cells = &members[count[v] as usize..count[v + 1] as usize];
+        let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
+        solve_patch(ctx, u, &setup, v as u32, cells, ex, balance_only)
     };
-    let mut outs = solve_all(&no_extra, true);
+    let mut outs: Vec<PatchOut> = (0..vertices.len())
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| solve_one(i, &no_extra, true))
+        .collect();
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
     // residual of the new solution is balanced again, up to FLOW_PASSES times.
@@ -259,15 +258,18 @@ pub fn reconstruct(
             q[v] = o.cannot_take;
         }
         let p = flow::potentials(&topo.edges, &q, &d);
+        // The moments of this pass' loads per patch: −(p_a − p_b) on a, + on b (flow.rs).
+        let mut shift = vec![[0.0; 3]; npts];
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
-            let y = [
+            let m = [
                 p[a as usize][0] - p[b as usize][0],
                 p[a as usize][1] - p[b as usize][1],
-                (p[a as usize][2] - p[b as usize][2]) * length,
+                p[a as usize][2] - p[b as usize][2],
             ];
-            if y == [0.0; 3] {
+            if m == [0.0; 3] {
                 continue;
             }
+            let y = [m[0], m[1], m[2] * length];
             let cells: Vec<u32> = topo.edge_cells[e]
                 .iter()
                 .copied()
@@ -284,8 +286,32 @@ pub fn reconstruct(
                 });
                 extra[b as usize].push(Extra { cell: t, c, centre });
             }
+            for (c, mc) in m.iter().enumerate() {
+                shift[a as usize][c] -= mc;
+                shift[b as usize][c] += mc;
+            }
         }
-        outs = solve_all(&extra, true);
+        // A patch that only gave its balance: that balance is linear in the load, and the
+        // loads h_E have the moments the flows gave them (edge_load), so it moves by `shift`
+        // (exact on its straight cells, up to round-off). The others are solved again.
+        let again: Vec<(usize, PatchOut)> = outs
+            .par_iter()
+            .enumerate()
+            .with_min_len(16)
+            .filter(|(_, o)| o.solved)
+            .map(|(i, _)| (i, solve_one(i, &extra, true)))
+            .collect();
+        for (o, &v) in outs.iter_mut().zip(&vertices) {
+            if !o.solved {
+                for (bc, sc) in o.balance.iter_mut().zip(shift[v]) {
+                    *bc += sc;
+                }
+                o.defect = relative_balance(o.balance, o.balance_scale);
+            }
+        }
+        for (i, o) in again {
+            outs[i] = o;
+        }
         passes += 1;
     }
     // The patches that only gave their balance, solved with their final loads.
@@ -294,12 +320,7 @@ pub fn reconstruct(
         .enumerate()
         .with_min_len(64)
         .filter(|(_, o)| !o.solved)
-        .map(|(i, _)| {
-            let v = vertices[i];
-            let cells = &members[count[v] as usize..count[v + 1] as usize];
-            let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
-            (i, solve_patch(ctx, u, &setup, v as u32, cells, ex, false))
-        })
+        .map(|(i, _)| (i, solve_one(i, &extra, false)))
         .collect();
     for (i, o) in finals {
         outs[i] = o;
@@ -351,6 +372,8 @@ struct PatchOut {
     defect: f64,
     /// Moments of the patch load against e_x, e_y and (x − x₀)^⊥/L (flow.rs's d_a).
     balance: [f64; 3],
+    /// The largest sum of the magnitudes of the terms that make up a balance component.
+    balance_scale: f64,
     /// The projector onto the moments the patch cannot take by free fluxes (flow.rs's Q_a):
     /// 0 with Dirichlet edges, the complement of the normal (and, with friction, tangential)
     /// flux moments on contact edges, and the identity otherwise; without weak symmetry the
@@ -1032,10 +1055,9 @@ fn solve_patch(
     }
     // Without the solve, the defect the solve would leave is the balance relative to its
     // terms (a balanced patch of this kind is solvable: design §5.10).
+    let balance_scale = balance_scale.iter().fold(0.0f64, |m, v| m.max(*v));
     let defect = if quick {
-        let b = balance.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let s = balance_scale.iter().fold(0.0f64, |m, v| m.max(*v));
-        if s > 0.0 { b / s } else { 0.0 }
+        relative_balance(balance, balance_scale)
     } else if scale > 0.0 {
         worst / scale
     } else {
@@ -1043,6 +1065,7 @@ fn solve_patch(
     };
     PatchOut {
         solved: !quick,
+        balance_scale,
         cells: out_cells,
         unknowns: nvar,
         active,
@@ -1058,6 +1081,13 @@ fn solve_patch(
             flow::complement(&[[0.0, 0.0, 1.0]], PATCH_DEPENDENT_ROW)
         },
     }
+}
+
+/// The defect of a patch that was not solved: max |balance| relative to its terms (a balanced
+/// patch without inequalities is solvable, design §5.10).
+fn relative_balance(balance: [f64; 3], scale: f64) -> f64 {
+    let b = balance.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scale > 0.0 { b / scale } else { 0.0 }
 }
 
 /// One cell of a patch, kept from assembly to the recovery of its coefficients.
