@@ -179,7 +179,13 @@ pub fn bound(
             let x = mesh.coords(t);
             let nodes = mesh.nodes(t);
             let sh = mesh.shape[t];
-            let deg = if f_poly { 8 } else { LOAD_DEGREE };
+            let deg = if !f_poly {
+                LOAD_DEGREE
+            } else if sh == Shape::Affine {
+                affine_degree(sigma, fam.degree())
+            } else {
+                8
+            };
             let rule = triangle_rule_cached(rule_degree(sh, deg));
             let verts = [x[0], x[1], x[2]];
             let h = crate::geometry::diameter(fam, &x[..fam.nodes()]);
@@ -260,8 +266,10 @@ pub fn bound(
             };
             // Mean-free asymmetry on a triangle with an RT stress: remove it exactly (design
             // §5.11), which drops the Korn-constant term of this cell. Straight cells use the
-            // Alfeld split of T (m = k + 2); curved P2 cells the Piola image of the reference
-            // split (m = k + 3, `symmetric::correct_curved`).
+            // Alfeld split of T (m = k + 2) through the Piola image of the reference split and
+            // cell-independent reference matrices (`symmetric::correct_affine`); curved P2
+            // cells the Piola image with a per-cell assembly (m = k + 3,
+            // `symmetric::correct_curved`).
             if let StressField::Rt(rt) = sigma
                 && !fam.is_quad()
                 && c.mean_as <= BOUND_MOMENT_RELATIVE
@@ -276,7 +284,7 @@ pub fn bound(
                     (s, el.stress([gu[0][0], sym, sym, gu[1][1]]))
                 };
                 let fix = if sh == Shape::Affine {
-                    symmetric::correct(verts, rt.order.k() + 2, &el, field)
+                    symmetric::correct_affine(verts, rt.order.k() + 2, &el, field)
                 } else {
                     let n6 = [x[0], x[1], x[2], x[3], x[4], x[5]];
                     symmetric::correct_curved(n6, rt.order.k() + 3, &el, field)
@@ -378,6 +386,20 @@ pub fn bound(
         cells: cells.iter().map(|c| c.local).collect(),
         energy,
     }
+}
+
+/// The lowest degree exact for every integrand of the cell loop of [`bound`] on a straight
+/// triangle of mesh degree `p` with a constant body force: with s of degree q (k + 1 for an
+/// RT_k stress, p for a nodal one) and ε(v) of degree p − 1, the Prager–Synge density and
+/// ‖as s‖² have degree 2 max(q, p − 1), the energy 2(p − 1), |div s + f|² 2(q − 1) and the
+/// rotation moment q. (The moment and asymmetry scales integrate absolute values: round-off
+/// floors, not exact integrals.)
+fn affine_degree(sigma: StressField, p: usize) -> usize {
+    let q = match sigma {
+        StressField::Rt(rt) => rt.order.k() + 1,
+        StressField::Nodal(_) => p,
+    };
+    2 * q.max(p.saturating_sub(1))
 }
 
 /// K_T = 2/β_T with β_T ≥ sin(ω_T/2), ω_T = θ_min/2 the Horgan–Payne angle of the triangle

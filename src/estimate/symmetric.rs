@@ -18,7 +18,13 @@
 //! constraints of τ are kept and the sum over the cells stays in H(div). Solvability: div maps
 //! V_m(T) onto the discontinuous P_{m−1} functions of the split with zero mean for m ≥ 2 (the
 //! Scott–Vogelius pair on Alfeld splits, Arnold–Qin 1992; Guzmán–Neilan 2018); the rank is
-//! checked numerically for every cell, and a failure is reported, not hidden.
+//! checked numerically (once per degree on the reference split for straight cells, per cell for
+//! curved ones), and a failure is reported, not hidden.
+//!
+//! Straight cells, [`correct_affine`]: the same space as the Piola image of the reference
+//! split, so the divergence matrix, its SVD and the Gram matrices of the reference gradients
+//! are computed once per degree; per cell only the field is evaluated (once per point of the
+//! exact rule of degree 2m − 2) and a Cholesky solve of size n − rank done.
 //!
 //! Curved (isoparametric P2) cells, [`correct_curved`]: the contravariant Piola image
 //! φ = J φ̂ / det J of φ̂ ∈ V_m(T̂) on the Alfeld split of the reference triangle keeps
@@ -26,8 +32,11 @@
 //! div̂ φ̂ = (as τ ∘ F) det J, a polynomial of degree ≤ k + 2 for τ ∈ RT_k, so m = k + 3.
 //!
 //! The cost is one small dense problem per cell (20 unknowns for m = 3, 38 for m = 4): the
-//! constraints are eliminated through the SVD of the divergence matrix, the remaining
-//! freedom (the divergence-free part, which only lowers ‖τ* − Cε(v)‖_A) by a Cholesky solve.
+//! constraints are eliminated through the SVD of the divergence matrix (per cell on curved
+//! cells, once per degree on straight ones), the remaining freedom (the divergence-free part,
+//! which only lowers ‖τ* − Cε(v)‖_A) by a Cholesky solve.
+
+use std::sync::OnceLock;
 
 use faer::prelude::Solve;
 use faer::{Mat, Side};
@@ -35,6 +44,7 @@ use faer::{Mat, Side};
 use crate::geometry::map::{Jacobian, QuadraticTriangle};
 use crate::material::Elastic;
 use crate::quadrature::triangle_rule_cached;
+use crate::reconstruct::qp::{cholesky, cholesky_solve};
 use crate::tolerance::SYMMETRIC_RANK;
 
 /// What the correction of one cell gives.
@@ -164,6 +174,7 @@ impl Split {
 
 /// Curl of the unknown (node, row r) with physical gradient `g` of its Lagrange function, as
 /// a row-major tensor [xx, xy, yx, yy].
+#[cfg(test)]
 #[inline]
 fn curl(r: usize, g: [f64; 2]) -> [f64; 4] {
     if r == 0 {
@@ -189,6 +200,11 @@ fn ps_density(el: &Elastic, s: [f64; 4], ce: [f64; 4]) -> f64 {
 /// The correction of module doc on the straight triangle `verts` (counter-clockwise) with
 /// polynomial degree `m` ≥ 2. `field(ξ)` gives τ and Cε(v) at the parent reference point ξ;
 /// both must be polynomials of degree ≤ m − 1 (exact quadrature).
+///
+/// This is the direct assembly on the PHYSICAL split (a quadrature pass for M, B and the
+/// data, an SVD of B per cell): the independent check of [`correct_affine`], which gives the
+/// same result from cell-independent reference matrices and is what the bound uses.
+#[cfg(test)]
 pub fn correct(
     verts: [[f64; 2]; 3],
     m: usize,
@@ -286,6 +302,329 @@ pub fn correct(
     }
 }
 
+/// Largest degree m served by [`correct_affine`] (RT_k stresses use m = k + 2 ≤ 4).
+pub const MAX_AFFINE_DEGREE: usize = 8;
+
+/// Quadrature degree of [`correct_affine`] on each reference sub-triangle: 2m − 2, exact for
+/// every integrand (τ, Cε(v) and Curl φ are of degree ≤ m − 1 on each sub-triangle, the test
+/// monomials of degree m − 1).
+pub const fn affine_rule_degree(m: usize) -> usize {
+    2 * m - 2
+}
+
+/// What [`correct_affine`] needs of the reference split for one degree m, built once
+/// ([`affine_reference`]): nothing in it depends on the cell.
+struct AffineReference {
+    /// Free Lagrange nodes of the reference split; the unknowns are node-major [φ̂₀, φ̂₁].
+    nodes: usize,
+    /// Test monomials per sub-triangle, m(m + 1)/2.
+    nq: usize,
+    /// Rows of B̂ (3 nq) and its numerical rank (`SYMMETRIC_RANK`).
+    rows: usize,
+    rank: usize,
+    /// B̂⁺ (n × rows, row-major): the pseudo-inverse through the numerical range.
+    pinv: Vec<f64>,
+    /// N̂ (n × nk, row-major, nk = n − rank): an orthonormal basis of the kernel of B̂.
+    kernel: Vec<f64>,
+    /// K^{stij} = N̂_sᵀ S^{ij} N̂_t (nk × nk each, index ((2s + t)2 + i)2 + j), with N̂_s the rows
+    /// of N̂ of component s and S^{ij}_{ab} = ∫_T̂ ∂_i N_a ∂_j N_b dξ (the three sub-triangles).
+    projected: Vec<f64>,
+    /// Quadrature points: parent reference point ξ, reference weight (the sub-triangle's
+    /// factor included, Σ = ½) and sub-triangle.
+    points: Vec<([f64; 2], f64, usize)>,
+    /// Per sub-triangle, its free nodes (the same number, `per_sub`, for the three).
+    sub_nodes: [Vec<usize>; 3],
+    per_sub: usize,
+    /// Per point, ∇̂N of its sub-triangle's free nodes (order of `sub_nodes`), `per_sub` each.
+    grads: Vec<[f64; 2]>,
+    /// Per point, the test monomials l₁^p l₂^q (p + q ≤ m − 1) of its sub-triangle, `nq` each.
+    tests: Vec<f64>,
+}
+
+/// The cached [`AffineReference`] of degree `m` (2 ≤ m ≤ [`MAX_AFFINE_DEGREE`]).
+fn affine_reference(m: usize) -> &'static AffineReference {
+    static CACHE: [OnceLock<AffineReference>; MAX_AFFINE_DEGREE + 1] =
+        [const { OnceLock::new() }; MAX_AFFINE_DEGREE + 1];
+    assert!(
+        (2..=MAX_AFFINE_DEGREE).contains(&m),
+        "symmetric correction: degree {m} outside 2..={MAX_AFFINE_DEGREE}"
+    );
+    CACHE[m].get_or_init(|| build_affine(m))
+}
+
+fn build_affine(m: usize) -> AffineReference {
+    let split = Split::new([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], m);
+    let nodes = split.nodes;
+    let n = 2 * nodes;
+    let nq = m * (m + 1) / 2;
+    let rows = 3 * nq;
+    let rule = triangle_rule_cached(affine_rule_degree(m));
+    let sub_nodes: [Vec<usize>; 3] =
+        std::array::from_fn(|i| split.node[i].iter().flatten().copied().collect());
+    let per_sub = sub_nodes[0].len();
+    let mut gram: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; nodes * nodes]);
+    let mut bm = Mat::<f64>::zeros(rows, n);
+    let (mut points, mut grads, mut tests) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut vals, mut all) = (Vec::new(), Vec::new());
+    for i in 0..3 {
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            let w = wq * split.det[i];
+            split.basis(i, l, &mut vals, &mut all);
+            let g: Vec<[f64; 2]> = split.node[i]
+                .iter()
+                .zip(&all)
+                .filter_map(|(na, &g)| na.map(|_| g))
+                .collect();
+            let mut qv = Vec::with_capacity(nq);
+            for p in 0..m {
+                for q in 0..m - p {
+                    qv.push(l[1].powi(p as i32) * l[2].powi(q as i32));
+                }
+            }
+            for (&a, ga) in sub_nodes[i].iter().zip(&g) {
+                for (&b, gb) in sub_nodes[i].iter().zip(&g) {
+                    for (ij, s) in gram.iter_mut().enumerate() {
+                        s[a * nodes + b] += w * ga[ij / 2] * gb[ij % 2];
+                    }
+                }
+                // div̂ (N e_s) = ∂_s N.
+                for r in 0..2 {
+                    for (qi, &qq) in qv.iter().enumerate() {
+                        bm[(i * nq + qi, 2 * a + r)] += w * ga[r] * qq;
+                    }
+                }
+            }
+            points.push((split.parent_xi(i, l), w, i));
+            grads.extend_from_slice(&g);
+            tests.extend_from_slice(&qv);
+        }
+    }
+    let svd = bm.svd().expect("SVD of the reference divergence matrix");
+    let (u, s, v) = (svd.U(), svd.S().column_vector(), svd.V());
+    let smax = if s.nrows() > 0 { s[0] } else { 0.0 };
+    let rank = (0..s.nrows())
+        .filter(|&j| s[j] > SYMMETRIC_RANK * smax)
+        .count();
+    let mut pinv = vec![0.0; n * rows];
+    for k in 0..n {
+        for r in 0..rows {
+            pinv[k * rows + r] = (0..rank).map(|j| v[(k, j)] * u[(r, j)] / s[j]).sum();
+        }
+    }
+    let nk = n - rank;
+    let kernel: Vec<f64> = (0..n * nk).map(|kj| v[(kj / nk, rank + kj % nk)]).collect();
+    let mut projected = vec![0.0; 16 * nk * nk];
+    for (idx, kk) in projected.chunks_mut((nk * nk).max(1)).enumerate() {
+        let (st, ij) = (idx / 4, idx % 4);
+        let (sc, tc) = (st / 2, st % 2);
+        let sg = &gram[ij];
+        for p in 0..nk {
+            for q in 0..nk {
+                let mut acc = 0.0;
+                for a in 0..nodes {
+                    let na = kernel[(2 * a + sc) * nk + p];
+                    if na == 0.0 {
+                        continue;
+                    }
+                    let row: f64 = (0..nodes)
+                        .map(|b| sg[a * nodes + b] * kernel[(2 * b + tc) * nk + q])
+                        .sum();
+                    acc += na * row;
+                }
+                kk[p * nk + q] = acc;
+            }
+        }
+    }
+    AffineReference {
+        nodes,
+        nq,
+        rows,
+        rank,
+        pinv,
+        kernel,
+        projected,
+        points,
+        sub_nodes,
+        per_sub,
+        grads,
+        tests,
+    }
+}
+
+/// The correction of the module doc on the straight triangle `verts` (counter-clockwise) with
+/// polynomial degree `m` (2 ≤ m ≤ [`MAX_AFFINE_DEGREE`]), evaluated on the REFERENCE split
+/// (docs/design.md §5.11). `field(ξ)` gives τ and Cε(v) at the parent reference point ξ; both
+/// must be polynomials of degree ≤ m − 1 (exact quadrature, degree [`affine_rule_degree`]).
+///
+/// With the constant Jacobian J = [x₁ − x₀ | x₂ − x₀], D = det J > 0, the contravariant Piola
+/// image φ = J φ̂ / D of φ̂ ∈ V_m(T̂) (Alfeld split of the reference triangle T̂) spans V_m(T):
+/// the affine map sends the reference split onto the split of T. Then:
+///
+/// ```text
+/// div φ = div̂ φ̂ / D            ⇒  constraint  B̂ x̂ = d̂,  d̂_(i,q) = ∫_{T̂_i} (as τ ∘ F) D q̂ dξ,
+/// ∇φ = a gᵀ for φ̂ = N e_s,  a = J e_s / D,  g = J⁻ᵀ ∇̂N  ⇒  Curl φ = L_s ∇̂N,
+/// L_s rows [xx, xy, yx, yy] = (a₀[−J₀₁, J₀₀], a₀[−J₁₁, J₁₀], a₁[−J₀₁, J₀₀], a₁[−J₁₁, J₁₀]) / D,
+/// M_(a s),(b t) = D Σ_ij (L_sᵀ A L_t)_ij S^{ij}_ab,   S^{ij}_ab = ∫_T̂ ∂_i N_a ∂_j N_b dξ,
+/// ```
+///
+/// with B̂ (the reference divergence matrix, tested with the monomials of each reference
+/// sub-triangle) and S^{ij} the same for every cell: B̂'s SVD gives, once per m, its
+/// pseudo-inverse B̂⁺ and an orthonormal kernel basis N̂ (`AffineReference`). Per cell,
+/// x̂ = x_p + N̂ z with x_p = B̂⁺ d̂ and (N̂ᵀ M N̂) z = −N̂ᵀ ∫_T A(τ − Cε(v) + Curl φ_p) : Curl φ_·,
+/// a Cholesky solve of size n − rank, where N̂ᵀ M N̂ = D Σ_{s,t,i,j} (L_sᵀ A L_t)_ij N̂_sᵀ S^{ij} N̂_t
+/// comes from projected reference matrices (no quadrature for M). The field is evaluated
+/// once per point; ps2 and ‖as τ*‖ are integrated pointwise from τ + Curl φ.
+///
+/// Same minimiser, hence the same result to round-off, as the physical-split assembly (kept
+/// as `correct` for the tests): the constraint rows differ from the physical ones by the
+/// factor D only. `phi` holds the physical φ = J x̂ / D at the free nodes, node-major.
+pub fn correct_affine(
+    verts: [[f64; 2]; 3],
+    m: usize,
+    el: &Elastic,
+    field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]),
+) -> Corrected {
+    let re = affine_reference(m);
+    let (nodes, nq, rows, rank, ps) = (re.nodes, re.nq, re.rows, re.rank, re.per_sub);
+    let n = 2 * nodes;
+    let nk = n - rank;
+    let jm = [
+        [verts[1][0] - verts[0][0], verts[2][0] - verts[0][0]],
+        [verts[1][1] - verts[0][1], verts[2][1] - verts[0][1]],
+    ];
+    let det = jm[0][0] * jm[1][1] - jm[0][1] * jm[1][0];
+    // L_s (4 × 2): Curl φ = L_s ∇̂N for φ̂ = N e_s.
+    let mut lm = [[[0.0; 2]; 4]; 2];
+    for (s, ls) in lm.iter_mut().enumerate() {
+        for r in 0..2 {
+            let a = jm[r][s] / (det * det);
+            ls[2 * r] = [-a * jm[0][1], a * jm[0][0]];
+            ls[2 * r + 1] = [-a * jm[1][1], a * jm[1][0]];
+        }
+    }
+    let curl_of = |h: [[f64; 2]; 2]| -> [f64; 4] {
+        std::array::from_fn(|c| {
+            lm[0][c][0] * h[0][0]
+                + lm[0][c][1] * h[0][1]
+                + lm[1][c][0] * h[1][0]
+                + lm[1][c][1] * h[1][1]
+        })
+    };
+    // h_s = Σ_a x_(a s) ∇̂N_a at point p.
+    let grad_sum = |x: &[f64], p: usize| -> [[f64; 2]; 2] {
+        let i = re.points[p].2;
+        let mut h = [[0.0; 2]; 2];
+        for (&a, g) in re.sub_nodes[i].iter().zip(&re.grads[p * ps..(p + 1) * ps]) {
+            for (s, hs) in h.iter_mut().enumerate() {
+                hs[0] += x[2 * a + s] * g[0];
+                hs[1] += x[2 * a + s] * g[1];
+            }
+        }
+        h
+    };
+    // First pass: the field once per point, as τ's moments d̂ and ‖as τ‖.
+    let np = re.points.len();
+    let mut vals = Vec::with_capacity(np);
+    let mut d = vec![0.0; rows];
+    let mut asym_before = 0.0;
+    for (p, &(xi, wr, i)) in re.points.iter().enumerate() {
+        let (tau, ce) = field(xi);
+        let w = wr * det;
+        let g = tau[1] - tau[2];
+        asym_before += w * g * g;
+        for (dq, &qq) in d[i * nq..(i + 1) * nq]
+            .iter_mut()
+            .zip(&re.tests[p * nq..(p + 1) * nq])
+        {
+            *dq += w * g * qq;
+        }
+        vals.push((tau, ce));
+    }
+    // x_p = B̂⁺ d̂.
+    let mut x: Vec<f64> = (0..n)
+        .map(|k| {
+            re.pinv[k * rows..(k + 1) * rows]
+                .iter()
+                .zip(&d)
+                .map(|(a, b)| a * b)
+                .sum()
+        })
+        .collect();
+    if nk > 0 {
+        // r = −∫ A(τ − Cε + Curl φ_p) : Curl φ_a (= b − M x_p, by exact quadrature).
+        let mut r = vec![0.0; n];
+        for (p, &(_, wr, i)) in re.points.iter().enumerate() {
+            let (tau, ce) = vals[p];
+            let cp = curl_of(grad_sum(&x, p));
+            let base: [f64; 4] = std::array::from_fn(|c| tau[c] - ce[c] + cp[c]);
+            let ab = el.compliance(base);
+            let w = wr * det;
+            // v_s = L_sᵀ A base.
+            let vs: [[f64; 2]; 2] = std::array::from_fn(|s| {
+                std::array::from_fn(|e| (0..4).map(|c| lm[s][c][e] * ab[c]).sum::<f64>())
+            });
+            for (&a, g) in re.sub_nodes[i].iter().zip(&re.grads[p * ps..(p + 1) * ps]) {
+                for (s, v) in vs.iter().enumerate() {
+                    r[2 * a + s] -= w * (v[0] * g[0] + v[1] * g[1]);
+                }
+            }
+        }
+        // H = N̂ᵀ M N̂ = D Σ (L_sᵀ A L_t)_ij K^{stij}; rhs = N̂ᵀ r.
+        let al: [[[f64; 4]; 2]; 2] = std::array::from_fn(|t| {
+            std::array::from_fn(|j| el.compliance(std::array::from_fn(|c| lm[t][c][j])))
+        });
+        let mut h = vec![0.0; nk * nk];
+        for (idx, kk) in re.projected.chunks(nk * nk).enumerate() {
+            let (s, t, i, j) = (idx / 8, (idx / 4) % 2, (idx / 2) % 2, idx % 2);
+            let c = det * (0..4).map(|c| lm[s][c][i] * al[t][j][c]).sum::<f64>();
+            for (hv, kv) in h.iter_mut().zip(kk) {
+                *hv += c * kv;
+            }
+        }
+        let mut z: Vec<f64> = (0..nk)
+            .map(|j| (0..n).map(|k| re.kernel[k * nk + j] * r[k]).sum())
+            .collect();
+        let set: Vec<usize> = (0..nk).collect();
+        let mut lf = vec![0.0; nk * nk];
+        if cholesky(nk, &h, &set, &mut lf) {
+            cholesky_solve(nk, nk, &lf, &mut z);
+            for (k, xk) in x.iter_mut().enumerate() {
+                *xk += re.kernel[k * nk..(k + 1) * nk]
+                    .iter()
+                    .zip(&z)
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>();
+            }
+        }
+    }
+    // Second pass: the corrected field's Prager–Synge density and asymmetry, pointwise.
+    let (mut ps2, mut asym_after) = (0.0, 0.0);
+    for (p, &(_, wr, _)) in re.points.iter().enumerate() {
+        let (tau, ce) = vals[p];
+        let cp = curl_of(grad_sum(&x, p));
+        let t: [f64; 4] = std::array::from_fn(|c| tau[c] + cp[c]);
+        let w = wr * det;
+        ps2 += w * ps_density(el, t, ce);
+        let a = t[1] - t[2];
+        asym_after += w * a * a;
+    }
+    let phi = (0..n)
+        .map(|k| {
+            let (a, r) = (k / 2, k % 2);
+            (jm[r][0] * x[2 * a] + jm[r][1] * x[2 * a + 1]) / det
+        })
+        .collect();
+    Corrected {
+        ps2,
+        asym_after: asym_after.sqrt(),
+        asym_before: asym_before.sqrt(),
+        rank,
+        rows,
+        phi,
+    }
+}
+
 /// The correction on a curved (isoparametric P2) triangle with nodes `nodes` (VTK order,
 /// counter-clockwise) and polynomial degree `m` ≥ 2, through the contravariant Piola map
 /// φ = J φ̂ / det J of a φ̂ ∈ V_m(T̂) on the Alfeld split of the REFERENCE triangle.
@@ -303,7 +642,8 @@ pub fn correct(
 /// rational in ξ, so the rule has degree 2m + 6 (an approximation, not exact; the constraint
 /// integrals, polynomial of degree 2m − 2, are exact). `field(ξ)` gives τ and Cε(v) at the
 /// reference point ξ of the cell map. On a 6-node cell with straight edges this is the straight
-/// correction of [`correct`] with degree m (same space, since J is constant), up to round-off.
+/// correction of [`correct_affine`] with degree m (same space, since J is constant), up to
+/// round-off.
 pub fn correct_curved(
     nodes: [[f64; 2]; 6],
     m: usize,
@@ -524,11 +864,52 @@ mod tests {
         ]
     }
 
+    /// [`correct_affine`] checked against the physical-split [`correct`]: same rank, rows,
+    /// ps2, ‖as τ‖ and φ to round-off; returns the former.
+    fn both(
+        v: [[f64; 2]; 3],
+        m: usize,
+        field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]) + Copy,
+    ) -> Corrected {
+        let old = correct(v, m, &EL, field);
+        let new = correct_affine(v, m, &EL, field);
+        assert_eq!((old.rank, old.rows), (new.rank, new.rows), "m = {m}");
+        let close = |a: f64, b: f64, floor: f64| (a - b).abs() <= 1e-10 * a.abs().max(floor);
+        assert!(
+            close(old.ps2, new.ps2, 1e-300),
+            "ps2 {} vs {}",
+            old.ps2,
+            new.ps2
+        );
+        assert!(
+            close(old.asym_before, new.asym_before, 1e-300),
+            "{} vs {}",
+            old.asym_before,
+            new.asym_before
+        );
+        let floor = old.asym_before.max(1e-300);
+        assert!(
+            old.asym_after <= 1e-12 * floor.max(1.0),
+            "{}",
+            old.asym_after
+        );
+        assert!(
+            new.asym_after <= 1e-12 * floor.max(1.0),
+            "{}",
+            new.asym_after
+        );
+        let scale = old.phi.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        for (a, b) in old.phi.iter().zip(&new.phi) {
+            assert!((a - b).abs() <= 1e-9 * scale, "φ {a} vs {b}");
+        }
+        new
+    }
+
     #[test]
     fn divergence_is_onto_the_mean_free_split_polynomials() {
         // Scott–Vogelius on the Alfeld split (Arnold–Qin 1992): rank = rows − 1 (the mean).
         for m in [2, 3, 4] {
-            let c = correct(tri(), m, &EL, |_| ([0.0; 4], [0.0; 4]));
+            let c = both(tri(), m, |_| ([0.0; 4], [0.0; 4]));
             assert_eq!(c.rank, c.rows - 1, "m = {m}");
         }
     }
@@ -554,7 +935,7 @@ mod tests {
             let h = 0.5 * a(p);
             ([s[0], s[1] + h, s[2] - h, s[3]], [0.7, 0.1, 0.1, 0.2])
         };
-        let c = correct(tri(), 3, &EL, field);
+        let c = both(tri(), 3, field);
         assert!(c.asym_before > 1e-3, "{}", c.asym_before);
         assert!(
             c.asym_after < 1e-13 * c.asym_before.max(1.0),
@@ -572,7 +953,7 @@ mod tests {
             let s = [p[0], 2.0 * p[1], 2.0 * p[1], 1.0 - p[0]];
             (s, s)
         };
-        let c = correct(tri(), 3, &EL, field);
+        let c = both(tri(), 3, field);
         assert!(
             c.ps2 < 1e-28 && c.asym_after < 1e-14,
             "{} {}",
@@ -588,7 +969,7 @@ mod tests {
             let p = x_of(xi);
             ([p[0] * p[1], 0.2, 0.2, p[1] * p[1]], [0.0, 0.1, 0.1, p[0]])
         };
-        let c = correct(tri(), 3, &EL, field);
+        let c = both(tri(), 3, field);
         let rule = triangle_rule_cached(8);
         let v = tri();
         let det =
@@ -743,6 +1124,150 @@ mod curved_tests {
         p
     }
 
+    /// A counter-clockwise straight 6-node cell from vertices.
+    fn straight_nodes(v: [[f64; 2]; 3]) -> [[f64; 2]; 6] {
+        let mid = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        [
+            v[0],
+            v[1],
+            v[2],
+            mid(v[0], v[1]),
+            mid(v[1], v[2]),
+            mid(v[2], v[0]),
+        ]
+    }
+
+    /// Old (physical split) and new (reference split) corrections of a mean-free RT_k stress on
+    /// the straight cell `v`, with Cε a linear field in x.
+    fn old_and_new(v: [[f64; 2]; 3], order: RtOrder) -> (Corrected, Corrected) {
+        let nodes = straight_nodes(v);
+        let c = mean_free_rt(order, &nodes);
+        let map = QuadraticTriangle::new(nodes);
+        let (xc, yc) = (
+            (v[0][0] + v[1][0] + v[2][0]) / 3.0,
+            (v[0][1] + v[1][1] + v[2][1]) / 3.0,
+        );
+        let size = ((v[1][0] - v[0][0]).powi(2) + (v[1][1] - v[0][1]).powi(2)).sqrt();
+        let sigma = rt_tau(order, &nodes, &c, [1.0 / 3.0, 1.0 / 3.0])
+            .iter()
+            .fold(0.0f64, |a, b| a.max(b.abs()));
+        let ce = |xi: [f64; 2]| {
+            let x = map.position(xi);
+            let (px, py) = ((x[0] - xc) / size, (x[1] - yc) / size);
+            [
+                sigma * px,
+                sigma * 0.3 * py,
+                sigma * 0.3 * py,
+                sigma * (1.0 - px),
+            ]
+        };
+        let field = |xi: [f64; 2]| (rt_tau(order, &nodes, &c, xi), ce(xi));
+        let m = order.k() + 2;
+        (correct(v, m, &EL, field), correct_affine(v, m, &EL, field))
+    }
+
+    fn assert_same(old: &Corrected, new: &Corrected, what: &str) {
+        assert_eq!(old.rank, new.rank, "{what}");
+        assert_eq!(new.rank + 1, new.rows, "{what}");
+        assert!(
+            (old.ps2 - new.ps2).abs() <= 1e-10 * old.ps2,
+            "{what}: ps2 {} vs {}",
+            old.ps2,
+            new.ps2
+        );
+        assert!(
+            (old.asym_before - new.asym_before).abs() <= 1e-12 * old.asym_before,
+            "{what}: {} vs {}",
+            old.asym_before,
+            new.asym_before
+        );
+        assert!(old.asym_before > 0.0, "{what}");
+        // The physical-split SVD loses a few digits on the sliver; the reference one does not.
+        for (c, which, tol) in [(old, "old", 1e-10), (new, "new", 1e-12)] {
+            assert!(
+                c.asym_after <= tol * c.asym_before,
+                "{what} {which}: {} → {}",
+                c.asym_before,
+                c.asym_after
+            );
+        }
+    }
+
+    #[test]
+    fn the_reference_split_correction_matches_the_physical_one_on_random_cells() {
+        let mut seed = 987654321u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for trial in 0..20 {
+            let mut v = [[0.0; 2]; 3];
+            for p in v.iter_mut() {
+                *p = [4.0 * rnd() - 2.0, 4.0 * rnd() - 2.0];
+            }
+            let det = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1])
+                - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
+            if det.abs() < 0.05 {
+                continue;
+            }
+            if det < 0.0 {
+                v.swap(1, 2);
+            }
+            for order in [RtOrder::Rt1, RtOrder::Rt2] {
+                let (old, new) = old_and_new(v, order);
+                assert_same(&old, &new, &format!("trial {trial} {order:?}"));
+            }
+        }
+    }
+
+    #[test]
+    fn the_reference_split_correction_on_a_sliver_and_at_extreme_scales() {
+        let base = [[0.1, 0.2], [1.3, 0.05], [0.4, 0.9]];
+        // Aspect ratio 1e3: height 1e-3 over a unit base.
+        let sliver = [[0.0, 0.0], [1.0, 0.0], [0.37, 1e-3]];
+        for order in [RtOrder::Rt1, RtOrder::Rt2] {
+            let (old, new) = old_and_new(sliver, order);
+            assert_same(&old, &new, &format!("sliver {order:?}"));
+            // A field fixed in ξ on a cell scaled by s: ps2/s² and the ratios are unchanged.
+            let tau = |xi: [f64; 2]| {
+                let a = xi[0] * xi[1] - 1.0 / 12.0 + 0.5 * (xi[0] * xi[0] - 1.0 / 6.0);
+                let sy = [1.0 + xi[0], 0.3 * xi[1], 0.3 * xi[1], xi[0] * xi[1]];
+                [sy[0], sy[1] + 0.5 * a, sy[2] - 0.5 * a, sy[3]]
+            };
+            let ce = |xi: [f64; 2]| [0.7 + xi[1], 0.1, 0.1, 0.2 - xi[0]];
+            let m = order.k() + 2;
+            let reference = correct_affine(base, m, &EL, |xi| (tau(xi), ce(xi)));
+            for cell in [base, sliver] {
+                let at_one = correct_affine(cell, m, &EL, |xi| (tau(xi), ce(xi)));
+                for s in [1e6, 1e-6] {
+                    let v = cell.map(|p| [s * p[0], s * p[1]]);
+                    let c = correct_affine(v, m, &EL, |xi| (tau(xi), ce(xi)));
+                    assert_eq!(c.rank, reference.rank);
+                    assert!(
+                        (c.ps2 / (s * s) - at_one.ps2).abs() <= 1e-10 * at_one.ps2,
+                        "{order:?} ×{s}: {} vs {}",
+                        c.ps2 / (s * s),
+                        at_one.ps2
+                    );
+                    assert!(
+                        (c.asym_before / s - at_one.asym_before).abs()
+                            <= 1e-12 * at_one.asym_before
+                    );
+                    assert!(c.asym_after <= 1e-12 * c.asym_before, "{order:?} ×{s}");
+                    let old = correct(v, m, &EL, |xi| (tau(xi), ce(xi)));
+                    assert!(
+                        (old.ps2 - c.ps2).abs() <= 1e-10 * c.ps2,
+                        "{order:?} ×{s}: old {} vs new {}",
+                        old.ps2,
+                        c.ps2
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn divergence_is_onto_on_the_reference_split() {
         for m in [2, 3, 4, 5] {
@@ -852,6 +1377,13 @@ mod curved_tests {
         let m = order.k() + 2;
         let a = correct([nodes[0], nodes[1], nodes[2]], m, &EL, field);
         let b = correct_curved(nodes, m, &EL, field);
+        let r = correct_affine([nodes[0], nodes[1], nodes[2]], m, &EL, field);
+        assert!(
+            (r.ps2 - b.ps2).abs() < 1e-11 * r.ps2,
+            "{} vs {}",
+            r.ps2,
+            b.ps2
+        );
         assert_eq!(a.rank, b.rank);
         assert!(
             (a.ps2 - b.ps2).abs() < 1e-11 * a.ps2,

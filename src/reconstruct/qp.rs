@@ -454,7 +454,7 @@ fn dual_active_set(
 }
 
 /// Cholesky factor L (row-major, stride m) of G restricted to `set`; false if not positive.
-fn cholesky(m: usize, g: &[f64], set: &[usize], l: &mut [f64]) -> bool {
+pub(crate) fn cholesky(m: usize, g: &[f64], set: &[usize], l: &mut [f64]) -> bool {
     let k = set.len();
     for i in 0..k {
         for j in 0..=i {
@@ -477,7 +477,7 @@ fn cholesky(m: usize, g: &[f64], set: &[usize], l: &mut [f64]) -> bool {
 }
 
 /// Solves L Lᵀ y = v in place (L from [`cholesky`], k × k).
-fn cholesky_solve(m: usize, k: usize, l: &[f64], v: &mut [f64]) {
+pub(crate) fn cholesky_solve(m: usize, k: usize, l: &[f64], v: &mut [f64]) {
     for i in 0..k {
         let mut s = v[i];
         for t in 0..i {
