@@ -44,7 +44,7 @@ use faer::{Mat, Side};
 use crate::geometry::map::{Jacobian, QuadraticTriangle};
 use crate::material::Elastic;
 use crate::quadrature::triangle_rule_cached;
-use crate::reconstruct::qp::{cholesky, cholesky_solve};
+use crate::solve::dense::{cholesky, cholesky_solve};
 use crate::tolerance::SYMMETRIC_RANK;
 
 /// What the correction of one cell gives.

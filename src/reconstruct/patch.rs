@@ -643,7 +643,15 @@ fn solve_patch(
         }
         let p = mesh.degree;
         let k = order.k();
-        let mut deg = (2 * k + 2).max(k + p + 1).max(2 * p);
+        // Exact degrees on a straight cell (the mass matrix comes from the reference Gram
+        // matrices): ψ_a φ_i·ε(u_h) has degree 1 + k + (p − 1), the divergence moments
+        // (ψ_a f + Cε(u_h)∇ψ_a + the linear flow loads)·q̂ at most k + max(p − 1, 1) with f
+        // constant. Curved cells integrate the mass matrix here too (2k + 2, and the map).
+        let mut deg = if affine {
+            k + p
+        } else {
+            (2 * k + 2).max(k + p + 1).max(2 * p)
+        };
         if f_expr.is_some_and(|f| !(f[0].is_constant() && f[1].is_constant())) {
             deg = deg.max(LOAD_DEGREE);
         }

@@ -52,6 +52,7 @@ use faer::linalg::triangular_solve::{
 use faer::prelude::Solve;
 use faer::{Mat, Par, Side};
 
+use crate::solve::dense::{cholesky, cholesky_solve};
 use crate::tolerance::{
     PATCH_ACTIVE_SET_ITERATIONS, PATCH_DEPENDENT_ROW, PATCH_QP_DEPENDENT_BOUND,
     PATCH_QP_FEASIBILITY, PATCH_QP_PENALTY, PATCH_QP_REGULARISATION, PATCH_REORTHOGONALISE,
@@ -450,47 +451,6 @@ fn dual_active_set(
             in_set[j] = false;
             lambda[j] = 0.0;
         }
-    }
-}
-
-/// Cholesky factor L (row-major, stride m) of G restricted to `set`; false if not positive.
-pub(crate) fn cholesky(m: usize, g: &[f64], set: &[usize], l: &mut [f64]) -> bool {
-    let k = set.len();
-    for i in 0..k {
-        for j in 0..=i {
-            let mut s = g[set[i] * m + set[j]];
-            for t in 0..j {
-                s -= l[i * m + t] * l[j * m + t];
-            }
-            if i == j {
-                // Also rejects NaN.
-                if s.is_nan() || s <= 0.0 {
-                    return false;
-                }
-                l[i * m + i] = s.sqrt();
-            } else {
-                l[i * m + j] = s / l[j * m + j];
-            }
-        }
-    }
-    true
-}
-
-/// Solves L Lᵀ y = v in place (L from [`cholesky`], k × k).
-pub(crate) fn cholesky_solve(m: usize, k: usize, l: &[f64], v: &mut [f64]) {
-    for i in 0..k {
-        let mut s = v[i];
-        for t in 0..i {
-            s -= l[i * m + t] * v[t];
-        }
-        v[i] = s / l[i * m + i];
-    }
-    for i in (0..k).rev() {
-        let mut s = v[i];
-        for t in i + 1..k {
-            s -= l[t * m + i] * v[t];
-        }
-        v[i] = s / l[i * m + i];
     }
 }
 

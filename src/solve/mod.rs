@@ -12,6 +12,7 @@
 //! once and reused.
 
 pub mod condition;
+pub mod dense;
 
 use faer::Side;
 use faer::prelude::Solve;
