@@ -103,6 +103,11 @@ pub const QUADRATIC_DEGENERATE: f64 = 1e-14;
 /// Cap on active-set changes of the QP solver.
 pub const MAX_ACTIVE_SET_ITERATIONS: usize = 200;
 
+/// Floor of the complementarity constant c_i = K_ii of the active-set update λ_i + c_i x_i > 0
+/// (relative to the largest |K_ii|): a zero diagonal entry would make the primal part of the
+/// test vanish, and the update only needs c_i > 0 of the right scale.
+pub const ACTIVE_SET_SCALE_FLOOR: f64 = 1e-12;
+
 /// Diagonal regularisation (relative to the largest diagonal entry) of the split friction
 /// unknowns a, b ≥ 0 of the displacement reconstruction, removed by a final solve.
 pub const SPLIT_REGULARISATION: f64 = 1e-10;
