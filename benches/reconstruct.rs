@@ -211,7 +211,8 @@ fn pattern(
     for t in 0..ntri {
         dofs.clear();
         for r in 0..2 {
-            for &e in &topo.cell_edges[t] {
+            // Triangles use 3 of the 4 edge slots; the fourth is `u32::MAX`.
+            for &e in topo.cell_edges[t].iter().filter(|&&e| e != u32::MAX) {
                 for s in 0..ed {
                     dofs.push(r * per_row + e as usize * ed + s);
                 }

@@ -103,6 +103,24 @@ pub const QUADRATIC_DEGENERATE: f64 = 1e-14;
 /// Cap on active-set changes of the QP solver.
 pub const MAX_ACTIVE_SET_ITERATIONS: usize = 200;
 
+/// Floor of the complementarity constant c_i = K_ii of the active-set update λ_i + c_i x_i > 0
+/// (relative to the largest |K_ii|): a zero diagonal entry would make the primal part of the
+/// test vanish, and the update only needs c_i > 0 of the right scale.
+pub const ACTIVE_SET_SCALE_FLOOR: f64 = 1e-12;
+
+/// A reconstruction matrix K whose condition estimate (`solve::condition`, Jacobi-scaled, a
+/// lower bound) reaches this is numerically singular and refused as "not positive definite"
+/// (`solve`): the Cholesky factorisation of a singular K meets its zero pivot as round-off of
+/// either sign, and a positive one (1e-15–5e-14 of K_jj) lets the factor through, so the
+/// factorisation alone does not tell. Measured with the factor through: ν = 0.5 with only
+/// Dirichlet and contact boundaries (the constant pressure free) gives 1.4e18 to 6.5e19 from
+/// 268 to 246 656 unknowns; determined problems give at most 6.6e12 (ν = 0.4999999 at 554 304
+/// unknowns, λ/μ = 1e7) and, for the badly scaled `seed` preset that the tool accepts with a
+/// warning, 8.3e15 (P2 Hertz, 7976 unknowns; the path before the Schur complement gave 7.0e15
+/// there). 1e17 (κu ≈ 11: the factorisation's round-off exceeds the smallest eigenvalue) lies
+/// a factor ≥ 12 from either side. Pivot ratios do not separate the two (seed Hertz 1.5e-15).
+pub const SINGULAR_CONDITION: f64 = 1e17;
+
 /// Diagonal regularisation (relative to the largest diagonal entry) of the split friction
 /// unknowns a, b ≥ 0 of the displacement reconstruction, removed by a final solve.
 pub const SPLIT_REGULARISATION: f64 = 1e-10;

@@ -15,10 +15,13 @@
 //! F = ∫ Q(ε) − 2B(ε, Aτ) + B(Aτ, Aτ) + ½ w_d |div τ + f|² + ⟨u_n − g, τ_n⟩_{Γ_C},
 //! ```
 //!
-//! so F = ½ xᵀKx − bᵀx + const in the DOFs x, minimised by [`super::solve::solve_bound_qp`].
+//! so F = ½ xᵀKx − bᵀx + const in the DOFs x, minimised by [`crate::solve::solve_bound_qp_csc`]
+//! (K assembled straight into its compressed lower triangle, [`crate::solve::SymCsc`]).
 //! With Coulomb friction the friction term is linear on K_σ too (|τ_n| = −τ_n), and the 2D
 //! cone |τ_t| ≤ 𝔉|τ_n| at each contact DOF point becomes two bounds after the change of
 //! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
+
+use rayon::prelude::*;
 
 use super::submesh::SubMesh;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
@@ -29,7 +32,7 @@ use crate::mesh::Mesh;
 use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::{BoundaryKind, Norm, Scene};
-use crate::solve::{Lower, SolveInfo, solve_bound_qp_from};
+use crate::solve::{SolveInfo, SymCsc, solve_bound_qp_csc};
 use crate::tolerance::{EDGE_DEGREE, GAP_RELATIVE, MAX_ACTIVE_SET_ITERATIONS, MIN_CONE_FRICTION};
 
 /// What the reconstruction reads (built from the [`Context`]).
@@ -42,6 +45,10 @@ struct Input<'a> {
     length_scale: f64,
     order: RtOrder,
 }
+
+/// Cells whose element matrices are computed in parallel before being added to K: enough
+/// work per batch for the thread pool, a few MiB of element matrices.
+const ELEMENT_CHUNK: usize = 4096;
 
 /// Cap on active-set changes.
 pub const MAX_ITERATIONS: usize = MAX_ACTIVE_SET_ITERATIONS;
@@ -252,10 +259,27 @@ pub fn reconstruct(
     };
 
     let f_expr = inp.scene.body_force.as_ref();
-    let mut entries: Vec<(usize, usize, f64)> = Vec::with_capacity(ntri * 4 * nloc * nloc);
-    let mut b = vec![0.0; n];
     let nl = 2 * nloc;
+    // The pattern of K from the connectivity: the free unknowns of one cell couple with each
+    // other (fixed ones keep only their diagonal). Element matrices are then added in place.
+    let mut group_ptr = Vec::with_capacity(ntri + 1);
+    let mut members = Vec::with_capacity(ntri * nl);
+    group_ptr.push(0);
     for t in 0..ntri {
+        for a in 0..nl {
+            for (g, cf) in map_local(t, a / nloc, a % nloc) {
+                if g != usize::MAX && cf != 0.0 && fixed[g].is_none() {
+                    members.push(g);
+                }
+            }
+        }
+        group_ptr.push(members.len());
+    }
+    let mut k = SymCsc::from_groups(n, &group_ptr, &members)?;
+    drop((group_ptr, members));
+    let mut b = vec![0.0; n];
+    // The element matrix and vector of cell t: K_loc (lower triangle, row-major) and b_loc.
+    let element = |t: usize| -> (Vec<f64>, Vec<f64>) {
         let parent = sub.parent[t] as usize;
         let (fam, half) = (mesh.family[parent], sub.index[t] as usize);
         let x = mesh.coords(parent);
@@ -352,32 +376,48 @@ pub fn reconstruct(
                 }
             }
         }
-        // Scatter.
-        let maps: Vec<[(usize, f64); 2]> =
-            (0..nl).map(|a| map_local(t, a / nloc, a % nloc)).collect();
-        for a in 0..nl {
-            for &(ga, ca) in &maps[a] {
-                if ga == usize::MAX || ca == 0.0 {
-                    continue;
-                }
-                if fixed[ga].is_none() {
-                    b[ga] += ca * bloc[a];
-                }
-                for c in 0..nl {
-                    let kv = if c <= a {
-                        kloc[a * nl + c]
-                    } else {
-                        kloc[c * nl + a]
-                    };
-                    for &(gc, cc) in &maps[c] {
-                        if gc == usize::MAX || cc == 0.0 {
-                            continue;
-                        }
-                        let v = ca * cc * kv;
-                        match (fixed[ga], fixed[gc]) {
-                            (None, None) if ga >= gc => entries.push((ga, gc, v)),
-                            (None, Some(val)) => b[ga] -= v * val,
-                            _ => {}
+        (kloc, bloc)
+    };
+    // Element matrices in parallel, a chunk of cells at a time (bounded memory); the scatter
+    // into the shared K stays serial.
+    for first in (0..ntri).step_by(ELEMENT_CHUNK) {
+        let last = (first + ELEMENT_CHUNK).min(ntri);
+        let elements: Vec<(Vec<f64>, Vec<f64>)> =
+            (first..last).into_par_iter().map(element).collect();
+        for (t, (kloc, bloc)) in (first..last).zip(elements) {
+            // Scatter.
+            let maps: Vec<[(usize, f64); 2]> =
+                (0..nl).map(|a| map_local(t, a / nloc, a % nloc)).collect();
+            for a in 0..nl {
+                for &(ga, ca) in &maps[a] {
+                    if ga == usize::MAX || ca == 0.0 {
+                        continue;
+                    }
+                    if fixed[ga].is_none() {
+                        b[ga] += ca * bloc[a];
+                    }
+                    for c in 0..nl {
+                        let kv = if c <= a {
+                            kloc[a * nl + c]
+                        } else {
+                            kloc[c * nl + a]
+                        };
+                        for &(gc, cc) in &maps[c] {
+                            if gc == usize::MAX || cc == 0.0 {
+                                continue;
+                            }
+                            let v = ca * cc * kv;
+                            match (fixed[ga], fixed[gc]) {
+                                // The guard adds the entry; it fails only if the pattern lacks it.
+                                (None, None) if ga >= gc && !k.add(ga, gc, v) => {
+                                    return Err(format!(
+                                        "internal: unknowns {ga} and {gc} of one cell are not \
+                                         coupled in the pattern"
+                                    ));
+                                }
+                                (None, Some(val)) => b[ga] -= v * val,
+                                _ => {}
+                            }
                         }
                     }
                 }
@@ -386,7 +426,8 @@ pub fn reconstruct(
     }
     for (g, f) in fixed.iter().enumerate() {
         if let Some(v) = f {
-            entries.push((g, g, 1.0));
+            // The diagonal is always in the pattern.
+            k.add(g, g, 1.0);
             b[g] = *v;
         }
     }
@@ -400,8 +441,8 @@ pub fn reconstruct(
         .flat_map(|c| c.1)
         .filter(|&g| g != usize::MAX)
         .collect();
-    let k = Lower { n, entries };
-    let (x, info) = solve_bound_qp_from(&k, &b, &constrained, MAX_ITERATIONS, &guess)?;
+    let (x, info) = solve_bound_qp_csc(&k, &b, &constrained, MAX_ITERATIONS, &guess)?;
+    drop(k);
 
     let coefficients = (0..ntri)
         .map(|t| {
