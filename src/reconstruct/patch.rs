@@ -39,7 +39,7 @@ use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
-use crate::mesh::NONE;
+use crate::mesh::{Mesh, NONE};
 use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
@@ -220,7 +220,6 @@ pub fn reconstruct(
         .map(|p| (p[0] - origin[0]).abs().max((p[1] - origin[1]).abs()))
         .fold(0.0f64, f64::max)
         .max(f64::MIN_POSITIVE);
-    let no_extra: Vec<Vec<Extra>> = Vec::new();
     let setup = PatchSetup {
         order,
         condition: &condition,
@@ -230,21 +229,22 @@ pub fn reconstruct(
     };
     // `balance_only`: patches whose balance is independent of the solution only give it (the
     // flows need nothing else), and are solved once, with their final loads, after the passes.
-    let solve_one = |i: usize, extra: &[Vec<Extra>], balance_only: bool| -> PatchOut {
+    let solve_one = |i: usize, extra: &[Extra], balance_only: bool| -> PatchOut {
         let v = vertices[i];
-        let cells = &members[count[v] as usize..count[v + 1] as usize];
-        let ex = extra.get(v).map_or(&[][..], |e| &e[..]);
-        solve_patch(ctx, u, &setup, v as u32, cells, ex, balance_only)
+        let range = count[v] as usize..count[v + 1] as usize;
+        let ex = extra.get(range.clone()).unwrap_or(&[]);
+        solve_patch(ctx, u, &setup, v as u32, &members[range], ex, balance_only)
     };
     let mut outs: Vec<PatchOut> = (0..vertices.len())
         .into_par_iter()
         .with_min_len(64)
-        .map(|i| solve_one(i, &no_extra, true))
+        .map(|i| solve_one(i, &[], true))
         .collect();
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
     // residual of the new solution is balanced again, up to FLOW_PASSES times.
-    let mut extra: Vec<Vec<Extra>> = vec![Vec::new(); npts];
+    // The flow loads, one per patch and cell (the slots of `members`), summed over the passes.
+    let mut extra: Vec<Extra> = vec![[0.0; 3]; members.len()];
     let mut passes = 0;
     while passes < FLOW_PASSES
         && outs.iter().any(|o| {
@@ -279,12 +279,22 @@ pub fn reconstruct(
                 continue;
             };
             for &(t, c, centre) in &h {
-                extra[a as usize].push(Extra {
-                    cell: t,
-                    c: [-c[0], -c[1], -c[2]],
-                    centre,
-                });
-                extra[b as usize].push(Extra { cell: t, c, centre });
+                // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
+                let xt = anchor(mesh, t as usize);
+                let c = [
+                    c[0] - c[2] * (xt[1] - centre[1]),
+                    c[1] + c[2] * (xt[0] - centre[0]),
+                    c[2],
+                ];
+                for (vertex, sign) in [(a as usize, -1.0), (b as usize, 1.0)] {
+                    let range = count[vertex] as usize..count[vertex + 1] as usize;
+                    let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t) else {
+                        continue;
+                    };
+                    for (e, ci) in extra[range.start + slot].iter_mut().zip(c) {
+                        *e += sign * ci;
+                    }
+                }
             }
             for (c, mc) in m.iter().enumerate() {
                 shift[a as usize][c] -= mc;
@@ -314,33 +324,39 @@ pub fn reconstruct(
         }
         passes += 1;
     }
-    // The patches that only gave their balance, solved with their final loads.
-    let finals: Vec<(usize, PatchOut)> = outs
-        .par_iter()
-        .enumerate()
-        .with_min_len(64)
-        .filter(|(_, o)| !o.solved)
-        .map(|(i, _)| (i, solve_one(i, &extra, false)))
-        .collect();
-    for (i, o) in finals {
-        outs[i] = o;
-    }
+    // The patches that only gave their balance, solved with their final loads, in chunks whose
+    // coefficients are summed at once (a million patches' cell lists would be ~0.7 GiB).
     let balanced = passes > 0;
     let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
-    let mut info = PatchInfo {
-        patches: outs.len(),
-        weak_symmetry,
-        balanced,
-        ..Default::default()
-    };
-    for o in outs {
-        for (t, c) in o.cells {
+    let add = |coefficients: &mut Vec<[[f64; MAX_RT_DOFS]; 2]>, o: &mut PatchOut| {
+        for (t, c) in std::mem::take(&mut o.cells) {
             for r in 0..2 {
                 for i in 0..MAX_RT_DOFS {
                     coefficients[t as usize][r][i] += c[r][i];
                 }
             }
         }
+    };
+    let pending: Vec<usize> = (0..outs.len()).filter(|&i| !outs[i].solved).collect();
+    for chunk in pending.chunks(FINAL_CHUNK) {
+        let finals: Vec<PatchOut> = chunk
+            .par_iter()
+            .with_min_len(64)
+            .map(|&i| solve_one(i, &extra, false))
+            .collect();
+        for (&i, mut o) in chunk.iter().zip(finals) {
+            add(&mut coefficients, &mut o);
+            outs[i] = o;
+        }
+    }
+    let mut info = PatchInfo {
+        patches: outs.len(),
+        weak_symmetry,
+        balanced,
+        ..Default::default()
+    };
+    for mut o in outs {
+        add(&mut coefficients, &mut o);
         info.max_unknowns = info.max_unknowns.max(o.unknowns);
         info.active += o.active;
         info.unsettled += usize::from(!o.settled);
@@ -391,12 +407,20 @@ struct PatchSetup<'a> {
     length: f64,
 }
 
-/// An added body load on one cell of the patch: c₀e_x + c₁e_y + c₂(x − centre)^⊥ (flow.rs).
-#[derive(Clone, Copy, Debug)]
-struct Extra {
-    cell: u32,
-    c: [f64; 3],
-    centre: [f64; 2],
+/// An added body load on one cell of a patch: c₀e_x + c₁e_y + c₂(x − x_T)^⊥ with x_T the cell's
+/// [`anchor`] (flow.rs).
+type Extra = [f64; 3];
+
+/// Patches solved at once in the last stage, whose cell coefficients are then summed.
+const FINAL_CHUNK: usize = 16_384;
+
+/// The point the flow loads of cell t turn about: the mean of its corner vertices.
+fn anchor(mesh: &Mesh, t: usize) -> [f64; 2] {
+    let x = mesh.coords(t);
+    [
+        (x[0][0] + x[1][0] + x[2][0]) / 3.0,
+        (x[0][1] + x[1][1] + x[2][1]) / 3.0,
+    ]
 }
 
 /// One cell's part of an edge load: the cell, (c₀, c₁, c₂) and the centre x̄.
@@ -621,6 +645,7 @@ fn solve_patch(
         let nodes = mesh.nodes(t);
         let sh = mesh.shape[t];
         let affine = sh == Shape::Affine;
+        let xt = anchor(mesh, t);
         let mut part = CellPart {
             t: t as u32,
             emap: [[Lin::default(); MAX_EDGE_DOFS]; 2],
@@ -691,9 +716,9 @@ fn solve_patch(
                 -psi * f[0] + sig[0] * gpsi[0] + sig[1] * gpsi[1],
                 -psi * f[1] + sig[2] * gpsi[0] + sig[3] * gpsi[1],
             ];
-            for ex in extra.iter().filter(|ex| ex.cell as usize == t) {
-                target[0] += ex.c[0] - ex.c[2] * (sp.x[1] - ex.centre[1]);
-                target[1] += ex.c[1] + ex.c[2] * (sp.x[0] - ex.centre[0]);
+            if let Some(ex) = extra.get(ci) {
+                target[0] += ex[0] - ex[2] * (sp.x[1] - xt[1]);
+                target[1] += ex[1] + ex[2] * (sp.x[0] - xt[0]);
             }
             // The divergence rows' right-hand sides (reference moments: the rows are
             // (div τ, q)_T = ∫_T̂ div̂ τ̂ q̂, condense.rs).
