@@ -85,14 +85,25 @@ fn the_global_minimiser_gives_no_bound() {
 }
 
 /// The manufactured family (scikit-fem, its own quadrature of the kinked f and t, so the patch
-/// loads are rebalanced): a bound is printed on every mesh, it is ≥ the true energy error,
-/// never called guaranteed (data outside the discrete spaces, Korn constants), and on P2 it
-/// converges at least at rate 1.5 from n = 8 to 16 (the error's rate there: 1.98).
+/// loads are rebalanced): a bound is printed on every mesh (n = 4, 8, 16, 32), it is ≥ the true
+/// energy error, never called guaranteed (data outside the discrete spaces, Korn constants), and
+/// on P2 it converges at least at rate 1.5 from n = 8 to 16 (the error's rate there: 1.76).
+///
+/// Over the finest pair (n = 16 → 32) the bound's rate is compared with the true error's own
+/// rate (from expected.json; measured 1.89 for P2, 0.99 for P1, against 2.04 and 1.07 for the
+/// bound): it may fall short of it by at most 0.1, i.e. the efficiency index may grow by at
+/// most 2^0.1 ≈ 7 % on that refinement. It falls on both degrees (P2 2.33 → 2.10: η_osc is of
+/// higher order; P1 3.98 → 3.76: η_as and η_PS converge at the error's rate 1, η_osc at ≈ 2.5),
+/// so the margin only absorbs changes of the reconstruction that leave it asymptotically
+/// efficient. The comparison is meaningful only in the asymptotic regime, which the error's
+/// own rates are checked to be in (P2 ≥ 1.8 with u ∈ H^{3.5−}, P1 ≥ 0.9).
 #[test]
 fn bounds_on_the_manufactured_family_are_above_the_true_error() {
+    let log2_ratio = |v: &[f64], i: usize| (v[i] / v[i + 1]).log2();
     for p in [1, 2] {
         let mut bounds = Vec::new();
-        for n in ["04", "08", "16"] {
+        let mut truths = Vec::new();
+        for n in ["04", "08", "16", "32"] {
             let dir = root().join(format!("fixtures/manufactured_frictionless_p{p}_n{n}"));
             let expected: serde_json::Value =
                 serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap())
@@ -110,11 +121,23 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
                 "p{p} n{n}: bound {e} below the true error {truth}"
             );
             bounds.push(e);
+            truths.push(truth);
         }
         if p == 2 {
-            let rate = (bounds[1] / bounds[2]).log2();
+            let rate = log2_ratio(&bounds, 1);
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
+        let (true_rate, rate) = (log2_ratio(&truths, 2), log2_ratio(&bounds, 2));
+        let asymptotic = if p == 2 { 1.8 } else { 0.9 };
+        assert!(
+            true_rate >= asymptotic,
+            "P{p}: the true error's rate {true_rate} from n = 16 to 32 ({truths:?})"
+        );
+        assert!(
+            rate >= true_rate - 0.1,
+            "P{p}: bound rate {rate} from n = 16 to 32 against the error's {true_rate} \
+             (bounds {bounds:?}, errors {truths:?})"
+        );
     }
 }
 
