@@ -18,7 +18,8 @@ The binary comes from $FOSLS (default <repo>/target/release/fosls).
    points (coarse fields evaluated at those points, gradient from the coarse element):
        ||e_u||_E = ( 1/2 (C eps(u_ref - u), eps(u_ref - u)) )^(1/2)       (the "energy" preset's norm)
        ||e_s||_A = ( 1/2 (A(s_ref - s_h), s_ref - s_h) )^(1/2),  s_ref = C eps(u_ref)   (file stress only)
-   u is the file's u_h, or fosls's reconstructed displacement (read back from --output).
+   u is the file's u_h, or fosls's reconstructed displacement (read back from --output). The report's
+   bound.energy_error (given for an equilibrated stress: --stress patch) is set against ||e_u||_E the same way.
 4. Prints the table, writes reference/speed_accuracy/results.json and rewrites the block
    <!-- speed-accuracy:begin --> ... <!-- speed-accuracy:end --> in BENCHMARKS.md.
 """
@@ -64,11 +65,14 @@ FULL = dict(coarse={1: ["M0", "M1", "M2"], 2: ["M0", "M1"]}, ref=dict(hc=0.0005,
 QUICK = dict(coarse={1: ["M0"], 2: ["M0"]}, ref=dict(hc=0.001, hmax=0.025, grading=0.15))
 
 # (stress source, RT degree or None, friction model on, displacement source)
+# "patch": the equilibrated reconstruction on vertex patches (RT_P, degree chosen by fosls), the one with a bound
 SETTINGS_FRICTIONLESS = [("file", None, False, "file"), ("reconstruct", 0, False, "file"),
-                         ("reconstruct", 1, False, "file"), ("file", None, False, "reconstruct")]
+                         ("reconstruct", 1, False, "file"), ("patch", None, False, "file"),
+                         ("file", None, False, "reconstruct")]
 SETTINGS_COULOMB = [("file", None, True, "file"), ("reconstruct", 0, True, "file"), ("reconstruct", 1, True, "file"),
-                    ("file", None, True, "reconstruct"),
-                    ("file", None, False, "file"), ("reconstruct", 0, False, "file"), ("reconstruct", 1, False, "file")]
+                    ("patch", None, True, "file"), ("file", None, True, "reconstruct"),
+                    ("file", None, False, "file"), ("reconstruct", 0, False, "file"), ("reconstruct", 1, False, "file"),
+                    ("patch", None, False, "file")]
 
 
 # ------------------------------------------------------------------ files
@@ -229,17 +233,31 @@ def run_fosls(fosls, case_dir, scene, stress, degree, disp, repeat, want_output)
 
 
 # ------------------------------------------------------------------ main
+def stress_label(r):
+    if r["stress"] == "file":
+        return "nodal (file)"
+    if r["stress"] == "patch":
+        m = re.match(r"RT_(\d+)", r.get("stress_used") or "")
+        return f"RT_{m.group(1) if m else '?'} patch"
+    return f"RT_{r['degree']} reconstruct"
+
+
 def fmt_row(r):
-    st = "nodal (file)" if r["stress"] == "file" else f"RT_{r['degree']} reconstruct"
     es = f"{r['err_sigma_A']:.3e}" if r.get("err_sigma_A") is not None else "—"
     ip = f"{r['index_pair']:.2f}" if r.get("index_pair") is not None else "—"
-    return (f"| {r['case']} ({r['cells']}) | P{r['P']} | {st} | {'on' if r['friction_model'] else 'off'} | {r['displacement']} "
-            f"| {r['wall_s']:.2f} | {r['recon_s']:.2f} | {r['rss_mib']:.1f} | {r['eta']:.3e} | {r['err_u_E']:.3e} "
-            f"| {r['index_u']:.2f} | {es} | {ip} |")
+    b = r.get("bound") or {}
+    has_b = b.get("energy_error") is not None
+    bd = f"{b['energy_error']:.3e}" if has_b else "—"
+    bi = f"{r['index_bound']:.2f}" if r.get("index_bound") is not None else "—"
+    bg = ("yes" if b.get("guaranteed") else "no") if has_b else "—"
+    return (f"| {r['case']} ({r['cells']}) | P{r['P']} | {stress_label(r)} | {'on' if r['friction_model'] else 'off'} "
+            f"| {r['displacement']} | {r['wall_s']:.2f} | {r['recon_s']:.2f} | {r['rss_mib']:.1f} | {r['eta']:.3e} "
+            f"| {r['err_u_E']:.3e} | {r['index_u']:.2f} | {es} | {ip} | {bd} | {bi} | {bg} |")
 
 
 HEAD = ("| file (cells) | P | stress | friction model | displacement | wall s | reconstruction s | peak RSS MiB | η "
-        "| ‖e_u‖_E | η / ‖e_u‖_E | ‖e_σ‖_A | η / ‖(e_u, e_σ)‖ |\n|" + "---|" * 13)
+        "| ‖e_u‖_E | η / ‖e_u‖_E | ‖e_σ‖_A | η / ‖(e_u, e_σ)‖ | bound | bound / ‖e_u‖_E | guaranteed |\n|"
+        + "---|" * 16)
 
 
 def main():
@@ -254,6 +272,7 @@ def main():
         sys.exit(f"fosls binary not found: {fosls} (set FOSLS)")
     conf = QUICK if a.quick else FULL
     t_all = time.time()
+    load0 = os.getloadavg()
     refs = {}
     for fr in (0.0, FRICTION):
         refs[fr] = Reference(conf["ref"], fr)
@@ -288,6 +307,10 @@ def main():
                         eu = err_file if disp == "file" else ref.norm_E(ev.grad(read_reconstructed_u(outv, dsc)))
                         es = err_sig if (stress == "file" and rep["stress"]["source"] == "file") else None
                         eta = rep["eta"]
+                        bnd = rep.get("bound") or {}
+                        bound = {k: bnd.get(k) for k in ("energy_error", "guaranteed", "relative", "terms",
+                                                         "failed_hypotheses", "statement")}
+                        be = bound["energy_error"]
                         recon = sum(s["seconds"] for s in rep.get("stages", []) if "reconstruct" in s["name"])
                         row = dict(case=name, mesh=mk, mesh_params=MESHES[mk], cells=len(tm.t), P=P, friction=fr,
                                    dofs=sol["info"]["dofs"], solve_s=solve_s, stress=stress, degree=deg,
@@ -299,23 +322,27 @@ def main():
                                    energy=rep["energy"], err_u_E=eu, err_u_E_file_nodal=err_file_nodes,
                                    err_sigma_A=es, index_u=eta / eu,
                                    index_pair=(eta / np.hypot(eu, es)) if es is not None else None,
+                                   bound=bound, index_bound=(be / eu) if be is not None else None,
                                    outside_points=ev.outside, notes=rep.get("notes", []))
                         rows.append(row)
                         print(fmt_row(row), flush=True)
     total = time.time() - t_all
-    print(f"total {total:.0f} s")
+    load1 = os.getloadavg()
+    print(f"total {total:.0f} s; load average (1/5/15 min) at start {load0[0]:.2f}/{load0[1]:.2f}/{load0[2]:.2f}, "
+          f"at end {load1[0]:.2f}/{load1[1]:.2f}/{load1[2]:.2f}")
     if a.no_write:
         return
     meta = dict(command="reference/.venv/bin/python reference/speed_accuracy/run.py" + (" --quick" if a.quick else ""),
                 fosls=fosls, total_s=total,
                 machine=dict(cpus=os.cpu_count(), platform=platform.platform()),
-                date=time.strftime("%Y-%m-%d"), repeat=a.repeat,
+                date=time.strftime("%Y-%m-%d"), repeat=a.repeat, loadavg_start=load0, loadavg_end=load1,
                 reference={str(fr): dict(mesh=conf["ref"], cells=r.cells, dofs=r.dofs, iterations=r.sol["info"]["iterations"],
                                          energy_sqrt=r.energy, seconds=r.seconds) for fr, r in refs.items()})
     (HERE / "results.json").write_text(json.dumps(dict(meta=meta, rows=rows), indent=1, default=float) + "\n")
     rf = refs[0.0]
     block = "\n".join([
-        f"Run {meta['date']}, {meta['command']}, {total / 60:.1f} min in total, best of {a.repeat} runs per setting; "
+        f"Run {meta['date']}, {meta['command']}, {total / 60:.1f} min in total, best of {a.repeat} runs per setting, "
+        f"load average (1 min) {load0[0]:.1f} at start and {load1[0]:.1f} at end on {os.cpu_count()} cores; "
         f"reference: scikit-fem P2 on hc = {conf['ref']['hc']}, maxh = {conf['ref']['hmax']}, grading = "
         f"{conf['ref']['grading']} ({rf.cells} cells, {rf.dofs} dofs), (½(Cε(u_ref), ε(u_ref)))^½ = {rf.energy:.4e} "
         f"(frictionless), {refs[FRICTION].energy:.4e} (Coulomb).", "", HEAD] + [fmt_row(r) for r in rows])
@@ -339,9 +366,17 @@ Coulomb F = 0.4) on graded meshes M0 (the fixtures' mesh, hc = 0.004) … M2 (hc
 ‖e_u‖_E = (½(Cε(u_ref − u), ε(u_ref − u)))^½ over the fine mesh's quadrature points (u = the file's u_h, or
 fosls's reconstructed displacement when displacement = reconstruct), ‖e_σ‖_A = (½(A(σ_ref − σ_h), σ_ref − σ_h))^½
 for the file's nodal stress only (σ_ref = Cε(u_ref)); η = F^½ from fosls (energy preset) bounds the pair, so
-η / ‖e_u‖_E uses the displacement error alone and η / ‖(e_u, e_σ)‖ both. Friction model off = the Coulomb file
-evaluated with the friction removed from the scene. Quadrature order and a `patch` reconstruction are not
-options of the tool (one fixed rule, global reconstruction only), so they have no rows.
+η / ‖e_u‖_E uses the displacement error alone and η / ‖(e_u, e_σ)‖ both. Stress = RT_k reconstruct is the
+global FOSLS minimiser (`--stress reconstruct --degree k`); RT_k patch is the equilibrated reconstruction on
+vertex patches (`--stress patch`, RT_1 for P1 and RT_2 for P2, chosen by fosls). bound = `bound.energy_error` of
+the JSON report, an upper bound of ‖e_u‖_E for the file's u_h (Prager–Synge, complementarity, oscillation,
+asymmetry and projection terms), and bound / ‖e_u‖_E its efficiency index against the same reference error; guaranteed = the
+report's `bound.guaranteed` (no when a hypothesis fails, listed in `bound.failed_hypotheses` in results.json).
+fosls gives a bound only for an equilibrated stress, so the nodal and global-minimiser rows have "—" in the three bound columns. On a
+Coulomb file with the friction model on, fosls's bound is that of the Tresca problem with the threshold
+𝔉|σ_h,n| (never guaranteed) while ‖e_u‖_E is still measured against the Coulomb reference. Friction model off =
+the Coulomb file evaluated with the friction removed from the scene. Quadrature order is not an option of the
+tool (one fixed rule), so it has no rows.
 
 <!-- speed-accuracy:begin -->
 <!-- speed-accuracy:end -->
