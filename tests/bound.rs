@@ -167,3 +167,31 @@ fn patch_reconstruction_is_refused_at_nu_one_half() {
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+/// `--degree` with `--stress patch` names RT_k, k ∈ {1, 2}; anything else is a usage error, and
+/// the report says which option rebuilt the stress and which space it used.
+#[test]
+fn patch_degree_is_checked_and_the_reason_names_the_option() {
+    let file = root().join("fixtures/hertz_skfem_p1/solution.vtu");
+    for k in ["0", "3"] {
+        let (code, _, err) = estimate(&file, &["--stress", "patch", "--degree", k]);
+        assert_eq!(code, 2, "{err}");
+        assert_eq!(
+            err.trim(),
+            format!(
+                "error: --degree {k} with --stress patch: RT_1 and RT_2 are available \
+                 (default: the displacement degree)"
+            )
+        );
+    }
+    for (args, space) in [
+        (&["--stress", "patch"][..], "RT_1 row-wise"),
+        (&["--stress", "patch", "--degree", "2"][..], "RT_2 row-wise"),
+    ] {
+        let (code, r, err) = estimate(&file, args);
+        assert!(code == 0 || code == 1, "{err}");
+        let r = r.expect("a report");
+        assert!(r.stress.space.starts_with(space), "{}", r.stress.space);
+        assert_eq!(r.stress.reason, "asked for with --stress patch");
+    }
+}

@@ -64,8 +64,8 @@ impl std::fmt::Display for DisplacementReason {
 /// Why the stress was reconstructed.
 #[derive(Clone, Debug, PartialEq)]
 pub enum StressReason {
-    /// `--stress reconstruct`.
-    Asked,
+    /// `--stress reconstruct`, `patch` or `global` (the option's value).
+    Asked(&'static str),
     /// The file's nodal stress is not in K_σ (the failed checks).
     Inadmissible { name: String, failures: Vec<String> },
     /// A cell-data stress: piecewise constant, not H(div)-conforming.
@@ -77,7 +77,7 @@ pub enum StressReason {
 impl std::fmt::Display for StressReason {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            StressReason::Asked => f.write_str("asked for with --stress reconstruct"),
+            StressReason::Asked(option) => write!(f, "asked for with --stress {option}"),
             StressReason::Inadmissible { name, failures } => write!(
                 f,
                 "the file's stress \"{name}\" is not in K_σ: {}",
@@ -111,12 +111,20 @@ pub struct Options {
 impl Options {
     /// Checks every option before any work.
     pub fn validate(&self) -> Result<(), Error> {
-        if let Some(k) = self.degree
-            && k > 1
-        {
-            return Err(Error::Usage(format!(
-                "--degree {k}: RT_0 and RT_1 are available"
-            )));
+        match (self.stress, self.degree) {
+            (Source::Patch, Some(k)) if !(1..=2).contains(&k) => {
+                return Err(Error::Usage(format!(
+                    "--degree {k} with --stress patch: RT_1 and RT_2 are available (default: \
+                     the displacement degree)"
+                )));
+            }
+            (Source::Patch, _) => {}
+            (_, Some(k)) if k > 1 => {
+                return Err(Error::Usage(format!(
+                    "--degree {k}: RT_0 and RT_1 are available"
+                )));
+            }
+            _ => {}
         }
         if let Some(theta) = self.mark {
             report::mark::check_theta(theta)?;
@@ -493,7 +501,9 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         .iter()
         .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
     let reconstruct_reason = match (&fields.stress, opts.stress) {
-        (_, Source::Reconstruct | Source::Patch | Source::Global) => Some(StressReason::Asked),
+        (_, Source::Reconstruct) => Some(StressReason::Asked("reconstruct")),
+        (_, Source::Patch) => Some(StressReason::Asked("patch")),
+        (_, Source::Global) => Some(StressReason::Asked("global")),
         // A conforming but inadmissible stress (tension, traction outside the cone, wrong
         // traction data) is rebuilt in K_σ under `auto` (docs/design.md §5).
         (Stress::Nodal { values, name, .. }, Source::Auto) => {

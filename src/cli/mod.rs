@@ -124,7 +124,8 @@ pub struct EstimateArgs {
     /// Where the displacement comes from.
     #[arg(long, value_enum, default_value = "auto")]
     pub displacement: Source,
-    /// Degree k of the RT_k stress reconstruction (default: displacement degree − 1).
+    /// Degree k of the RT_k stress reconstruction: 0 or 1, default displacement degree − 1;
+    /// with `--stress patch` 1 or 2, default the displacement degree.
     #[arg(long, value_name = "k")]
     pub degree: Option<usize>,
     /// Mark cells for refinement by Dörfler's bulk criterion with parameter θ ∈ (0, 1].
