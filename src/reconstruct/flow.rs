@@ -78,6 +78,17 @@ fn mul(q: &M3, v: [f64; 3]) -> [f64; 3] {
 /// patch, the complement of its normal-flux moments for a contact patch; [`complement`]).
 /// Returns q = Q p per vertex; the flow on edge (a, b) is q_a − q_b.
 pub fn potentials(edges: &[[u32; 2]], q: &[M3], d: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    potentials_cached(edges, q, d, &mut FlowCache::default())
+}
+
+/// [`potentials`], keeping the factorisation in `cache` for later calls with the same `edges`
+/// and `q` (the passes of one reconstruction; only the defects change).
+pub fn potentials_cached(
+    edges: &[[u32; 2]],
+    q: &[M3],
+    d: &[[f64; 3]],
+    cache: &mut FlowCache,
+) -> Vec<[f64; 3]> {
     let n = d.len();
     let mut start = vec![0usize; n + 1];
     for &[a, b] in edges {
@@ -128,11 +139,14 @@ pub fn potentials(edges: &[[u32; 2]], q: &[M3], d: &[[f64; 3]]) -> Vec<[f64; 3]>
         let kernel = complement(&taken, 1e-10);
         comps.push((members, kernel));
     }
-    if comps
-        .iter()
-        .all(|(_, k)| k.iter().all(|row| row.iter().all(|&x| x == 0.0)))
-        && let Some(p) = direct(&start, &adj, q, d)
-    {
+    let factors = cache.direct.get_or_insert_with(|| {
+        comps
+            .iter()
+            .all(|(_, k)| k.iter().all(|row| row.iter().all(|&x| x == 0.0)))
+            .then(|| factor_direct(&start, &adj, q))
+            .flatten()
+    });
+    if let Some(p) = factors.as_ref().and_then(|f| solve_direct(f, d)) {
         return p;
     }
     let remove_kernel = |v: &mut [[f64; 3]]| {
@@ -184,17 +198,19 @@ pub fn potentials(edges: &[[u32; 2]], q: &[M3], d: &[[f64; 3]]) -> Vec<[f64; 3]>
     (0..n).map(|v| mul(&q[v], p[v])).collect()
 }
 
-/// The potentials by sparse Cholesky when every Q_a is diagonal with entries 0 and 1 (a patch
-/// takes a moment wholly or not at all: the projectors `reconstruct::patch` builds) and every
+/// The factorisations for the potentials by sparse Cholesky when every Q_a is diagonal with
+/// entries 0 and 1 (a patch takes a moment wholly or not at all: the projectors
+/// `reconstruct::patch` builds) and every
 /// connected component has a sink for every moment (no kernel). Then the three moments
 /// decouple: for moment c, L restricted to the patches that cannot take it, with p = 0 on the
 /// others, is the graph Laplacian with Dirichlet vertices, symmetric positive definite because
 /// each free part of a component touches a sink. One factorisation per distinct free set
 /// (O(N log N) fill for mesh graphs) replaces the O(N^½) CG steps per decade of accuracy, which
 /// would be the serial bottleneck of a million-cell mesh. None when Q is not of that kind or
-/// the factorisation fails; the caller then runs the CG.
-fn direct(start: &[usize], adj: &[u32], q: &[M3], d: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
-    let n = d.len();
+/// the factorisation fails (the caller then runs the CG). The factors depend on Q only, so
+/// they are kept in a [`FlowCache`] for the next pass.
+fn factor_direct(start: &[usize], adj: &[u32], q: &[M3]) -> Option<Direct> {
+    let n = q.len();
     for m in q {
         for (i, row) in m.iter().enumerate() {
             for (j, &x) in row.iter().enumerate() {
@@ -210,57 +226,64 @@ fn direct(start: &[usize], adj: &[u32], q: &[M3], d: &[[f64; 3]]) -> Option<Vec<
         }
     }
     let free = |v: usize, c: usize| q[v][c][c] == 1.0 && start[v + 1] > start[v];
-    let mut out = vec![[0.0; 3]; n];
-    let mut factor: Option<(Vec<usize>, Llt<usize, f64>)> = None;
-    let mut previous: Option<usize> = None;
+    let mut out = Direct {
+        per: [None; 3],
+        factors: Vec::new(),
+    };
     for c in 0..3 {
-        let same = previous.is_some_and(|pc| (0..n).all(|v| free(v, c) == free(v, pc)));
-        if !same {
-            let mut index = vec![usize::MAX; n];
-            let mut count = 0usize;
-            for (v, slot) in index.iter_mut().enumerate() {
-                if free(v, c) {
-                    *slot = count;
-                    count += 1;
-                }
+        if c > 0 && (0..n).all(|v| free(v, c) == free(v, c - 1)) {
+            out.per[c] = out.per[c - 1];
+            continue;
+        }
+        let mut index = vec![usize::MAX; n];
+        let mut count = 0usize;
+        for (v, slot) in index.iter_mut().enumerate() {
+            if free(v, c) {
+                *slot = count;
+                count += 1;
             }
-            if count == 0 {
-                factor = None;
-                previous = Some(c);
+        }
+        if count == 0 {
+            continue;
+        }
+        let mut pairs = Vec::with_capacity(n + adj.len() / 2);
+        let mut values = Vec::with_capacity(n + adj.len() / 2);
+        for v in 0..n {
+            let iv = index[v];
+            if iv == usize::MAX {
                 continue;
             }
-            let mut pairs = Vec::with_capacity(n + adj.len() / 2);
-            let mut values = Vec::with_capacity(n + adj.len() / 2);
-            for v in 0..n {
-                let iv = index[v];
-                if iv == usize::MAX {
-                    continue;
-                }
-                pairs.push(Pair::new(iv, iv));
-                values.push((start[v + 1] - start[v]) as f64);
-                for &w in &adj[start[v]..start[v + 1]] {
-                    let iw = index[w as usize];
-                    if iw != usize::MAX && iw < iv {
-                        pairs.push(Pair::new(iv, iw));
-                        values.push(-1.0);
-                    }
+            pairs.push(Pair::new(iv, iv));
+            values.push((start[v + 1] - start[v]) as f64);
+            for &w in &adj[start[v]..start[v + 1]] {
+                let iw = index[w as usize];
+                if iw != usize::MAX && iw < iv {
+                    pairs.push(Pair::new(iv, iw));
+                    values.push(-1.0);
                 }
             }
-            let (symbolic, argsort) =
-                SymbolicSparseColMat::try_new_from_indices(count, count, &pairs).ok()?;
-            let mat =
-                SparseColMat::<usize, f64>::new_from_argsort(symbolic.clone(), &argsort, &values)
-                    .ok()?;
-            let sym = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower).ok()?;
-            let llt = Llt::try_new_with_symbolic(sym, mat.as_ref(), Side::Lower).ok()?;
-            factor = Some((index, llt));
         }
-        previous = Some(c);
-        let Some((index, llt)) = &factor else {
+        let (symbolic, argsort) =
+            SymbolicSparseColMat::try_new_from_indices(count, count, &pairs).ok()?;
+        let mat = SparseColMat::<usize, f64>::new_from_argsort(symbolic.clone(), &argsort, &values)
+            .ok()?;
+        let sym = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower).ok()?;
+        let llt = Llt::try_new_with_symbolic(sym, mat.as_ref(), Side::Lower).ok()?;
+        out.per[c] = Some(out.factors.len());
+        out.factors.push((index, count, llt));
+    }
+    Some(out)
+}
+
+/// The solves of [`factor_direct`]'s factors for the defects `d`.
+fn solve_direct(f: &Direct, d: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
+    let mut out = vec![[0.0; 3]; d.len()];
+    for c in 0..3 {
+        let Some(k) = f.per[c] else {
             continue;
         };
-        let count = index.iter().filter(|&&i| i != usize::MAX).count();
-        let mut rhs = faer::Mat::<f64>::zeros(count, 1);
+        let (index, count, llt) = &f.factors[k];
+        let mut rhs = faer::Mat::<f64>::zeros(*count, 1);
         for (v, &iv) in index.iter().enumerate() {
             if iv != usize::MAX {
                 rhs[(iv, 0)] = d[v][c];
@@ -276,6 +299,20 @@ fn direct(start: &[usize], adj: &[u32], q: &[M3], d: &[[f64; 3]]) -> Option<Vec<
     out.iter()
         .all(|p| p.iter().all(|x| x.is_finite()))
         .then_some(out)
+}
+
+/// Per moment, the factor of its free set (None: no free vertex); the factors with their
+/// vertex → unknown maps and sizes.
+struct Direct {
+    per: [Option<usize>; 3],
+    factors: Vec<(Vec<usize>, usize, Llt<usize, f64>)>,
+}
+
+/// What [`potentials_cached`] keeps between the passes of one reconstruction: the sparse
+/// Cholesky factors, which depend on the graph and Q only (or the finding that there are none).
+#[derive(Default)]
+pub struct FlowCache {
+    direct: Option<Option<Direct>>,
 }
 
 /// y = A x on per-vertex 3-vectors.

@@ -246,6 +246,8 @@ pub fn reconstruct(
     // The flow loads, one per patch and cell (the slots of `members`), summed over the passes.
     let mut extra: Vec<Extra> = vec![[0.0; 3]; members.len()];
     let mut passes = 0;
+    // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
+    let mut flow_cache = flow::FlowCache::default();
     while passes < FLOW_PASSES
         && outs.iter().any(|o| {
             (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible) && o.cannot_take != [[0.0; 3]; 3]
@@ -257,7 +259,7 @@ pub fn reconstruct(
             d[v] = o.balance;
             q[v] = o.cannot_take;
         }
-        let p = flow::potentials(&topo.edges, &q, &d);
+        let p = flow::potentials_cached(&topo.edges, &q, &d, &mut flow_cache);
         // The moments of this pass' loads per patch: −(p_a − p_b) on a, + on b (flow.rs).
         let mut shift = vec![[0.0; 3]; npts];
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
