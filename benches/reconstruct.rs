@@ -23,10 +23,12 @@
 //!   compressive everywhere on Γ_C, the constraint is inactive at the minimiser, so fosls and
 //!   NGSolve solve the same problem and their F must agree.
 //!
-//! Per case (fosls): unknowns (all, including the fixed essential values), assembled triplets
-//! (the `nonzeros` of `SolveInfo`, duplicates included), distinct nonzeros of the lower
-//! triangle, nonzeros of the Cholesky factor (the same pattern analysed again with faer in the
-//! bench, after the timed runs), active-set iterations, active constraints, KKT residual,
+//! Per case (fosls): unknowns of the global system (the edge DOFs, including the fixed
+//! essential values; since issue 13 the interior DOFs are condensed cell by cell and reported
+//! separately as `condensed`), the `nonzeros` of `SolveInfo` (distinct entries of K's lower
+//! triangle), distinct nonzeros of the lower triangle of the same pattern rebuilt in the bench,
+//! nonzeros of its Cholesky factor (that pattern analysed again with faer, after the timed
+//! runs, faer's default AMD), active-set iterations, active constraints, KKT residual,
 //! reconstruction time (best of 2), the time of one symbolic and one numeric factorisation of
 //! that pattern, peak memory, F and its terms.
 //!
@@ -177,8 +179,9 @@ fn loadavg() -> String {
 }
 
 /// The lower-triangle pattern of the reconstruction matrix, rebuilt from the topology with
-/// the numbering of `reconstruct::stress` (per row: the edge slots of every edge, then the
-/// interior DOFs of every cell; rows 0 and 1 one after the other). Fixed unknowns (traction
+/// the numbering of `reconstruct::stress` (per row: the edge slots of every edge; rows 0 and 1
+/// one after the other; the interior DOFs are condensed cell by cell and not in the global
+/// system). Fixed unknowns (traction
 /// on free/Neumann edges, τ_t on contact edges) keep only their diagonal entry; at a contact
 /// slot row 1's unknown is the fixed y_t and row 0's the free y_n.
 fn pattern(
@@ -188,9 +191,8 @@ fn pattern(
     ntri: usize,
 ) -> (usize, Vec<Pair<usize, usize>>) {
     let ed = order.edge_dofs();
-    let inn = order.interior_dofs();
     let ne = topo.edges.len();
-    let per_row = ne * ed + ntri * inn;
+    let per_row = ne * ed;
     let n = 2 * per_row;
     let mut fixed = vec![false; n];
     for be in edges {
@@ -216,9 +218,6 @@ fn pattern(
                 for s in 0..ed {
                     dofs.push(r * per_row + e as usize * ed + s);
                 }
-            }
-            for m in 0..inn {
-                dofs.push(r * per_row + ne * ed + t * inn + m);
             }
         }
         dofs.retain(|&g| !fixed[g]);
@@ -353,6 +352,7 @@ fn child(spec: &str) {
         "threads": threads,
         "displacement": disp.name(),
         "unknowns": r.info.unknowns,
+        "condensed": r.info.condensed,
         "triplets": r.info.nonzeros,
         "nonzeros": distinct,
         "factor_nonzeros": factor_nnz,

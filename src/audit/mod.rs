@@ -776,9 +776,17 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     }
     if let (Some(r), None) = (&reconstruction, &patch_info) {
         notes.push(format!(
-            "stress reconstruction: {} unknowns, {} nonzeros, {} active-set iterations{}, {} \
+            "stress reconstruction: {} unknowns{}, {} nonzeros, {} active-set iterations{}, {} \
              active contact constraints, KKT residual {:.2e}",
             r.info.unknowns,
+            if r.info.condensed > 0 {
+                format!(
+                    " (+ {} interior ones condensed cell by cell)",
+                    r.info.condensed
+                )
+            } else {
+                String::new()
+            },
             r.info.nonzeros,
             r.info.iterations,
             if r.info.converged {

@@ -16,7 +16,10 @@
 //! ```
 //!
 //! so F = ½ xᵀKx − bᵀx + const in the DOFs x, minimised by [`crate::solve::solve_bound_qp_csc`]
-//! (K assembled straight into its compressed lower triangle, [`crate::solve::SymCsc`]).
+//! (K assembled straight into its compressed lower triangle, [`crate::solve::SymCsc`]). The
+//! interior DOFs of each cell (RT_1: 2 per row, RT_2: 6) couple only within their cell and carry
+//! no constraint: they are condensed cell by cell before the assembly (`condense_element`, in
+//! parallel) and recovered after the solve, so K holds the edge DOFs only (issue 13).
 //! With Coulomb friction the friction term is linear on K_σ too (|τ_n| = −τ_n), and the 2D
 //! cone |τ_t| ≤ 𝔉|τ_n| at each contact DOF point becomes two bounds after the change of
 //! variables w₁ = τ_t + 𝔉τ_n, w₂ = −τ_t + 𝔉τ_n (flux densities).
@@ -32,7 +35,7 @@ use crate::mesh::Mesh;
 use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::{BoundaryKind, Norm, Scene};
-use crate::solve::{SolveInfo, SymCsc, solve_bound_qp_csc};
+use crate::solve::{SolveInfo, SymCsc, dense, solve_bound_qp_csc};
 use crate::tolerance::{EDGE_DEGREE, GAP_RELATIVE, MAX_ACTIVE_SET_ITERATIONS, MIN_CONE_FRICTION};
 
 /// What the reconstruction reads (built from the [`Context`]).
@@ -54,7 +57,8 @@ const ELEMENT_CHUNK: usize = 4096;
 pub const MAX_ITERATIONS: usize = MAX_ACTIVE_SET_ITERATIONS;
 
 /// Global unknowns: per row, the edge slots of every edge, then the interior DOFs of every
-/// cell; at contact slots the two rows' unknowns are replaced by (y_n, y_t).
+/// cell (none when they are condensed, [`condense_element`]); at contact slots the two rows'
+/// unknowns are replaced by (y_n, y_t).
 struct Dofs {
     per_row: usize,
     edge_dofs: usize,
@@ -76,17 +80,35 @@ impl Dofs {
 /// frame (n, t) without friction, the cone variables with it), the global DOF is sign × that.
 type Frame = ([f64; 2], [f64; 2], f64);
 
+/// What one cell adds to the global system: its matrix (lower triangle, row-major), its
+/// vector, and the data that recovers its condensed DOFs ([`condense_element`]; empty without
+/// condensation).
+type ElementSystem = (Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// The result of a reconstruction.
 pub struct Reconstruction {
     pub stress: RtStress,
     pub info: SolveInfo,
 }
 
-/// Reconstructs σ_h; errors name what is not supported.
+/// Reconstructs σ_h; errors name what is not supported. The interior DOFs of every cell are
+/// condensed (eliminated cell by cell before the global solve, `condense_element`): the
+/// global system holds only the edge DOFs, and [`SolveInfo::unknowns`] counts those.
 pub fn reconstruct(
     ctx: &Context,
     u: &[[f64; 2]],
     order: RtOrder,
+) -> Result<Reconstruction, String> {
+    reconstruct_with(ctx, u, order, true)
+}
+
+/// [`reconstruct`] with the interior DOFs condensed (`condense`) or kept in the global system
+/// (the reference the condensed path is tested against).
+fn reconstruct_with(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    order: RtOrder,
+    condense: bool,
 ) -> Result<Reconstruction, String> {
     let inp = &Input {
         mesh: ctx.mesh,
@@ -103,10 +125,13 @@ pub fn reconstruct(
     let sub = SubMesh::new(mesh);
     let topo = &sub.topo;
     let ntri = sub.len();
+    // Interior DOFs per row and cell; with `condense` none of them is a global unknown.
+    let condense = condense && order.interior_dofs() > 0;
+    let interior_global = if condense { 0 } else { order.interior_dofs() };
     let dofs = Dofs {
-        per_row: topo.edges.len() * order.edge_dofs() + ntri * order.interior_dofs(),
+        per_row: topo.edges.len() * order.edge_dofs() + ntri * interior_global,
         edge_dofs: order.edge_dofs(),
-        interior: order.interior_dofs(),
+        interior: interior_global,
         edges: topo.edges.len(),
     };
     let n = 2 * dofs.per_row;
@@ -260,13 +285,23 @@ pub fn reconstruct(
 
     let f_expr = inp.scene.body_force.as_ref();
     let nl = 2 * nloc;
+    // Local functions (a = row × nloc + i) that enter the global system: all, or the edge
+    // functions when the interior ones are condensed (`interior` lists those).
+    let is_interior = |a: usize| a % nloc >= 3 * order.edge_dofs();
+    let kept: Vec<usize> = (0..nl).filter(|&a| !condense || !is_interior(a)).collect();
+    let interior: Vec<usize> = (0..nl).filter(|&a| condense && is_interior(a)).collect();
+    let (nk, ni) = (kept.len(), interior.len());
+    // Per cell, what recovers its interior DOFs from its edge DOFs: W = K_II⁻¹ K_IE (ni × nk,
+    // row-major) and w = K_II⁻¹ b_I (ni).
+    let stride = ni * (nk + 1);
+    let mut recovery = vec![0.0; ntri * stride];
     // The pattern of K from the connectivity: the free unknowns of one cell couple with each
     // other (fixed ones keep only their diagonal). Element matrices are then added in place.
     let mut group_ptr = Vec::with_capacity(ntri + 1);
-    let mut members = Vec::with_capacity(ntri * nl);
+    let mut members = Vec::with_capacity(ntri * nk);
     group_ptr.push(0);
     for t in 0..ntri {
-        for a in 0..nl {
+        for &a in &kept {
             for (g, cf) in map_local(t, a / nloc, a % nloc) {
                 if g != usize::MAX && cf != 0.0 && fixed[g].is_none() {
                     members.push(g);
@@ -279,7 +314,7 @@ pub fn reconstruct(
     drop((group_ptr, members));
     let mut b = vec![0.0; n];
     // The element matrix and vector of cell t: K_loc (lower triangle, row-major) and b_loc.
-    let element = |t: usize| -> (Vec<f64>, Vec<f64>) {
+    let full_element = |t: usize| -> (Vec<f64>, Vec<f64>) {
         let parent = sub.parent[t] as usize;
         let (fam, half) = (mesh.family[parent], sub.index[t] as usize);
         let x = mesh.coords(parent);
@@ -378,17 +413,36 @@ pub fn reconstruct(
         }
         (kloc, bloc)
     };
+    // The matrix and vector that enter the global system (kept functions, lower triangle
+    // row-major nk × nk), and the recovery data of the condensed ones; `Err(t)`: K_II of cell t
+    // is not positive definite.
+    let element = |t: usize| -> Result<ElementSystem, usize> {
+        let (kloc, bloc) = full_element(t);
+        if !condense {
+            return Ok((kloc, bloc, Vec::new()));
+        }
+        condense_element(nl, &kloc, &bloc, &kept, &interior).ok_or(t)
+    };
     // Element matrices in parallel, a chunk of cells at a time (bounded memory); the scatter
     // into the shared K stays serial.
     for first in (0..ntri).step_by(ELEMENT_CHUNK) {
         let last = (first + ELEMENT_CHUNK).min(ntri);
-        let elements: Vec<(Vec<f64>, Vec<f64>)> =
+        let elements: Vec<Result<ElementSystem, usize>> =
             (first..last).into_par_iter().map(element).collect();
-        for (t, (kloc, bloc)) in (first..last).zip(elements) {
+        for (t, el) in (first..last).zip(elements) {
+            let (kloc, bloc, rec) = el.map_err(|t| {
+                format!(
+                    "the reconstruction matrix is not positive definite (the interior block of \
+                     cell {t}): the field is not determined by the functional"
+                )
+            })?;
+            recovery[t * stride..(t + 1) * stride].copy_from_slice(&rec);
             // Scatter.
-            let maps: Vec<[(usize, f64); 2]> =
-                (0..nl).map(|a| map_local(t, a / nloc, a % nloc)).collect();
-            for a in 0..nl {
+            let maps: Vec<[(usize, f64); 2]> = kept
+                .iter()
+                .map(|&a| map_local(t, a / nloc, a % nloc))
+                .collect();
+            for a in 0..nk {
                 for &(ga, ca) in &maps[a] {
                     if ga == usize::MAX || ca == 0.0 {
                         continue;
@@ -396,11 +450,11 @@ pub fn reconstruct(
                     if fixed[ga].is_none() {
                         b[ga] += ca * bloc[a];
                     }
-                    for c in 0..nl {
+                    for c in 0..nk {
                         let kv = if c <= a {
-                            kloc[a * nl + c]
+                            kloc[a * nk + c]
                         } else {
-                            kloc[c * nl + a]
+                            kloc[c * nk + a]
                         };
                         for &(gc, cc) in &maps[c] {
                             if gc == usize::MAX || cc == 0.0 {
@@ -441,20 +495,31 @@ pub fn reconstruct(
         .flat_map(|c| c.1)
         .filter(|&g| g != usize::MAX)
         .collect();
-    let (x, info) = solve_bound_qp_csc(&k, &b, &constrained, MAX_ITERATIONS, &guess)?;
+    let (x, mut info) = solve_bound_qp_csc(&k, &b, &constrained, MAX_ITERATIONS, &guess)?;
     drop(k);
+    info.condensed = ntri * ni;
 
     let coefficients = (0..ntri)
+        .into_par_iter()
         .map(|t| {
             let mut c = [[0.0; MAX_RT_DOFS]; 2];
-            for (r, row) in c.iter_mut().enumerate() {
-                for (i, ci) in row.iter_mut().enumerate().take(nloc) {
-                    *ci = map_local(t, r, i)
-                        .iter()
-                        .filter(|(g, _)| *g != usize::MAX)
-                        .map(|&(g, cf)| cf * x[g])
-                        .sum();
-                }
+            let mut edge = vec![0.0; nk];
+            for (j, &a) in kept.iter().enumerate() {
+                let v = map_local(t, a / nloc, a % nloc)
+                    .iter()
+                    .filter(|(g, _)| *g != usize::MAX)
+                    .map(|&(g, cf)| cf * x[g])
+                    .sum();
+                c[a / nloc][a % nloc] = v;
+                edge[j] = v;
+            }
+            // Condensed interior DOFs: x_I = K_II⁻¹ b_I − K_II⁻¹ K_IE x_E.
+            let rec = &recovery[t * stride..(t + 1) * stride];
+            let (w_mat, w_vec) = rec.split_at(ni * nk);
+            for (p, &a) in interior.iter().enumerate() {
+                let row = &w_mat[p * nk..(p + 1) * nk];
+                c[a / nloc][a % nloc] =
+                    w_vec[p] - row.iter().zip(&edge).map(|(w, e)| w * e).sum::<f64>();
             }
             c
         })
@@ -467,4 +532,191 @@ pub fn reconstruct(
         },
         info,
     })
+}
+
+/// Static condensation of one cell's element system (module doc; issue 13): with the local
+/// functions split into the kept ones E (edge functions, shared with the neighbours) and the
+/// interior ones I (which couple only within the cell: the functional's terms are cell
+/// integrals, H(div) conformity and the constraints act on edge DOFs only),
+///
+/// ```text
+/// K_red = K_EE − K_EI K_II⁻¹ K_IE,   b_red = b_E − K_EI K_II⁻¹ b_I,
+/// x_I = K_II⁻¹ b_I − K_II⁻¹ K_IE x_E,
+/// ```
+///
+/// and the minimiser of ½xᵀKx − bᵀx over all DOFs is that of the reduced problem over the edge
+/// DOFs, with the same constraints, completed by x_I. `kloc` is the lower triangle of the
+/// element matrix (row-major, nl × nl), `bloc` its vector. Returns (K_red lower triangle
+/// row-major |E| × |E|, b_red, [W = K_II⁻¹ K_IE row-major |I| × |E|; w = K_II⁻¹ b_I]), or
+/// `None` when K_II is not numerically positive definite.
+fn condense_element(
+    nl: usize,
+    kloc: &[f64],
+    bloc: &[f64],
+    kept: &[usize],
+    interior: &[usize],
+) -> Option<ElementSystem> {
+    let kv = |a: usize, c: usize| {
+        if c <= a {
+            kloc[a * nl + c]
+        } else {
+            kloc[c * nl + a]
+        }
+    };
+    let (nk, ni) = (kept.len(), interior.len());
+    let kii: Vec<f64> = (0..ni * ni)
+        .map(|pq| kv(interior[pq / ni], interior[pq % ni]))
+        .collect();
+    let set: Vec<usize> = (0..ni).collect();
+    let mut l = vec![0.0; ni * ni];
+    if !dense::cholesky(ni, &kii, &set, &mut l) {
+        return None;
+    }
+    // rec = [W (ni × nk, row-major); w]: columns of K_IE and b_I solved with K_II.
+    let mut rec = vec![0.0; ni * (nk + 1)];
+    let mut col = vec![0.0; ni];
+    for j in 0..=nk {
+        for (p, &ip) in interior.iter().enumerate() {
+            col[p] = if j < nk { kv(ip, kept[j]) } else { bloc[ip] };
+        }
+        dense::cholesky_solve(ni, ni, &l, &mut col);
+        for p in 0..ni {
+            if j < nk {
+                rec[p * nk + j] = col[p];
+            } else {
+                rec[ni * nk + p] = col[p];
+            }
+        }
+    }
+    let mut kred = vec![0.0; nk * nk];
+    let mut bred = vec![0.0; nk];
+    for a in 0..nk {
+        let ka = kept[a];
+        let kai: Vec<f64> = interior.iter().map(|&ip| kv(ka, ip)).collect();
+        for c in 0..=a {
+            let s: f64 = (0..ni).map(|p| kai[p] * rec[p * nk + c]).sum();
+            kred[a * nk + c] = kv(ka, kept[c]) - s;
+        }
+        let s: f64 = (0..ni).map(|p| kai[p] * rec[ni * nk + p]).sum();
+        bred[a] = bloc[ka] - s;
+    }
+    Some((kred, bred, rec))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::read::scene::load_scene;
+
+    /// The condensed solve (interior DOFs eliminated cell by cell) and the solve of the whole
+    /// system give the same minimiser: the same coefficients to 1e-10 relative, the same
+    /// active-set iterations and active constraints, on frictionless and Coulomb Hertz (RT_1
+    /// and RT_2, interior DOFs present; RT_0 has none).
+    #[test]
+    fn condensed_solve_equals_the_full_one() {
+        let mut with_contact = 0;
+        for (case, norm) in [
+            ("hertz_skfem_p2", Norm::Energy),
+            ("hertz_skfem_p2_coulomb", Norm::Energy),
+            ("block_skfem_p1", Norm::Energy),
+            ("block_skfem_p1_coulomb", Norm::Robust),
+        ] {
+            let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("fixtures")
+                .join(case);
+            let vtu = crate::read::vtu::read_vtu(&dir.join("solution.vtu")).unwrap();
+            let data = crate::mesh::build(vtu).unwrap();
+            let topo = crate::topology::build(&data).unwrap();
+            let scene = load_scene(&dir.join("scene.toml")).unwrap();
+            let fields = crate::problem::select_fields(&data, &scene).unwrap();
+            let edges = crate::problem::classify(&data, &topo, &scene)
+                .unwrap()
+                .edges;
+            let ctx = Context::new(&data.mesh, &topo, &scene, &edges, norm);
+            let u = fields.displacement.unwrap();
+            for order in [RtOrder::Rt1, RtOrder::Rt2] {
+                let full = reconstruct_with(&ctx, &u, order, false).unwrap();
+                let cond = reconstruct_with(&ctx, &u, order, true).unwrap();
+                let (fi, ci) = (&full.info, &cond.info);
+                assert_eq!(fi.condensed, 0);
+                assert_eq!(ci.unknowns + ci.condensed, fi.unknowns, "{case} {order:?}");
+                assert!(ci.nonzeros < fi.nonzeros, "{case} {order:?}");
+                assert_eq!(ci.iterations, fi.iterations, "{case} {order:?}");
+                assert_eq!(ci.active, fi.active, "{case} {order:?}");
+                assert!(ci.converged, "{case} {order:?}: {ci:?}");
+                with_contact += usize::from(ci.active > 0);
+                assert!(ci.kkt_residual < 1e-10, "{case} {order:?}: {ci:?}");
+                let scale = full
+                    .stress
+                    .coefficients
+                    .iter()
+                    .flatten()
+                    .flatten()
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
+                let diff = full
+                    .stress
+                    .coefficients
+                    .iter()
+                    .zip(&cond.stress.coefficients)
+                    .flat_map(|(a, b)| a.iter().flatten().zip(b.iter().flatten()))
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                // Round-off of the full solve: its forward error bound κu exceeds 1e-10 at RT_2
+                // (κ 3e8; the condensed system's is 3e6).
+                let tolerance = 1e-10f64.max(fi.condition_estimate * f64::EPSILON);
+                assert!(
+                    scale > 0.0 && diff <= tolerance * scale,
+                    "{case} {order:?}: {diff:e} of {scale:e}"
+                );
+                eprintln!(
+                    "{case} {norm:?} {order:?}: {} + {} unknowns (full {}), nonzeros {} (full \
+                     {}), κ {:.1e} (full {:.1e}), difference {:.1e} relative",
+                    ci.unknowns,
+                    ci.condensed,
+                    fi.unknowns,
+                    ci.nonzeros,
+                    fi.nonzeros,
+                    ci.condition_estimate,
+                    fi.condition_estimate,
+                    diff / scale
+                );
+            }
+        }
+        assert!(with_contact >= 4, "{with_contact}");
+    }
+
+    /// Condensing a small SPD system by hand: the reduced system's solution and the recovered
+    /// interior values are those of the whole system.
+    #[test]
+    fn element_condensation_by_hand() {
+        // K = [[4, 1, 0.5], [1, 3, 1], [0.5, 1, 2]] (lower triangle, row-major), b = (1, 2, 3);
+        // kept {0, 2}, interior {1}.
+        let nl = 3;
+        let kloc = [4.0, 0.0, 0.0, 1.0, 3.0, 0.0, 0.5, 1.0, 2.0];
+        let bloc = [1.0, 2.0, 3.0];
+        let (kred, bred, rec) = condense_element(nl, &kloc, &bloc, &[0, 2], &[1]).unwrap();
+        // K_red = K_EE − K_EI K_IE / 3.
+        let k00 = 4.0 - 1.0 / 3.0;
+        let k10 = 0.5 - 1.0 / 3.0;
+        let k11 = 2.0 - 1.0 / 3.0;
+        assert!((kred[0] - k00).abs() < 1e-15 && (kred[2] - k10).abs() < 1e-15);
+        assert!((kred[3] - k11).abs() < 1e-15);
+        assert!((bred[0] - (1.0 - 2.0 / 3.0)).abs() < 1e-15);
+        assert!((bred[1] - (3.0 - 2.0 / 3.0)).abs() < 1e-15);
+        // Solve the reduced 2×2 and recover x₁; compare with the whole 3×3 solve.
+        let det = k00 * k11 - k10 * k10;
+        let xe = [
+            (k11 * bred[0] - k10 * bred[1]) / det,
+            (k00 * bred[1] - k10 * bred[0]) / det,
+        ];
+        let x1 = rec[2] - rec[0] * xe[0] - rec[1] * xe[1];
+        let x = [xe[0], x1, xe[1]];
+        let k = [[4.0, 1.0, 0.5], [1.0, 3.0, 1.0], [0.5, 1.0, 2.0]];
+        for i in 0..3 {
+            let r: f64 = (0..3).map(|j| k[i][j] * x[j]).sum::<f64>() - bloc[i];
+            assert!(r.abs() < 1e-14, "row {i}: {r}");
+        }
+        // A K_II that is not positive definite is reported.
+        let bad = [4.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 1.0, 2.0];
+        assert!(condense_element(nl, &bad, &bloc, &[0, 2], &[1]).is_none());
+    }
 }

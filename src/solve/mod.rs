@@ -213,7 +213,14 @@ impl SymCsc {
 /// How the solve went.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SolveInfo {
+    /// Unknowns of the system solved globally (K's dimension, fixed values included as
+    /// identity rows). The global stress reconstruction condenses the interior RT DOFs cell by
+    /// cell first: they are counted in [`SolveInfo::condensed`], not here.
     pub unknowns: usize,
+    /// Unknowns eliminated cell by cell before the global solve and recovered after it (the
+    /// interior DOFs of the stress reconstruction; 0 for the other solves). The problem has
+    /// `unknowns + condensed` unknowns in all.
+    pub condensed: usize,
     /// Stored (distinct) entries of the lower triangle of K.
     pub nonzeros: usize,
     /// Active-set steps (each one dense Cholesky of the inactive block of S).
@@ -221,7 +228,9 @@ pub struct SolveInfo {
     /// Constraints active at the solution (x_i = 0, λ_i ≥ 0).
     pub active: usize,
     /// max of: primal violation max x_i⁺ (scaled by max |x|), dual violation max λ_i⁻ and
-    /// stationarity |Kx − b + λ| on all unknowns (scaled by max |b|), on the full system.
+    /// stationarity |Kx − b + λ| on all unknowns (scaled by max |b|), on the system solved
+    /// (with condensed unknowns: the condensed system, whose stationarity is that of the full
+    /// one on the kept unknowns; the condensed rows hold by their cell-wise solves).
     pub kkt_residual: f64,
     pub converged: bool,
     /// Estimated condition number of the Jacobi-scaled K, the matrix factorised
