@@ -110,6 +110,24 @@ fn reconstruct_with(
     order: RtOrder,
     condense: bool,
 ) -> Result<Reconstruction, String> {
+    // At ν = 0.5 (λ = ∞) a constant pressure τ = pI has Aτ = 0 and div τ = 0, and it meets
+    // every constraint but a traction datum (τ_t = 0, τ_n ≤ 0 for p ≤ 0): without a boundary edge
+    // that carries one (Neumann or traction-free) it is in the kernel of K. Refused here, from the
+    // structure, because the factorisation's round-off pivots and the condition estimate of a
+    // singular K do not always show it (docs/design.md §5.5).
+    if ctx.elastic.lambda.is_infinite()
+        && !ctx
+            .edges
+            .iter()
+            .any(|e| matches!(e.condition, Condition::Neumann(_) | Condition::Free))
+    {
+        return Err(
+            "the reconstruction matrix is not positive definite (τ = pI is in its \
+                    kernel: no boundary edge carries traction data): the field is not \
+                    determined by the functional"
+                .into(),
+        );
+    }
     let inp = &Input {
         mesh: ctx.mesh,
         scene: ctx.scene,
