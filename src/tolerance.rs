@@ -119,6 +119,10 @@ pub const ACTIVE_SET_SCALE_FLOOR: f64 = 1e-12;
 /// warning, 8.3e15 (P2 Hertz, 7976 unknowns; the path before the Schur complement gave 7.0e15
 /// there). 1e17 (κu ≈ 11: the factorisation's round-off exceeds the smallest eigenvalue) lies
 /// a factor ≥ 12 from either side. Pivot ratios do not separate the two (seed Hertz 1.5e-15).
+/// These figures are of the whole K, before the interior RT DOFs were condensed; on the
+/// condensed K the ν = 0.5 estimates can fall to 4.1e15–1.1e16 (design §5.5), which is why that
+/// case is now refused from the structure first (`reconstruct::stress`) and this threshold is
+/// the second line.
 pub const SINGULAR_CONDITION: f64 = 1e17;
 
 /// Diagonal regularisation (relative to the largest diagonal entry) of the split friction
