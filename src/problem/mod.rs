@@ -62,6 +62,37 @@ impl<'a> Context<'a> {
     }
 }
 
+/// A committed fixture read the way `audit::run` reads it (tests of the reconstructions).
+#[cfg(test)]
+pub(crate) struct Fixture {
+    pub data: crate::mesh::Dataset,
+    pub topo: Topology,
+    pub scene: Scene,
+    pub edges: Vec<BoundaryEdge>,
+    pub fields: Fields,
+}
+
+/// Reads `fixtures/<case>/solution.vtu` with its `scene.toml`; panics on any error.
+#[cfg(test)]
+pub(crate) fn fixture(case: &str) -> Fixture {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(case);
+    let vtu = crate::read::vtu::read_vtu(&dir.join("solution.vtu")).unwrap();
+    let data = crate::mesh::build(vtu).unwrap();
+    let topo = crate::topology::build(&data).unwrap();
+    let scene = crate::read::scene::load_scene(&dir.join("scene.toml")).unwrap();
+    let fields = select_fields(&data, &scene).unwrap();
+    let edges = classify(&data, &topo, &scene).unwrap().edges;
+    Fixture {
+        data,
+        topo,
+        scene,
+        edges,
+        fields,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

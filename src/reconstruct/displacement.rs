@@ -386,17 +386,13 @@ mod tests {
     }
 
     fn load(case: &str) -> Case {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("fixtures")
-            .join(case);
-        let vtu = crate::read::vtu::read_vtu(&dir.join("solution.vtu")).unwrap();
-        let data = crate::mesh::build(vtu).unwrap();
-        let topo = crate::topology::build(&data).unwrap();
-        let scene = crate::read::scene::load_scene(&dir.join("scene.toml")).unwrap();
-        let fields = crate::problem::select_fields(&data, &scene).unwrap();
-        let edges = crate::problem::classify(&data, &topo, &scene)
-            .unwrap()
-            .edges;
+        let crate::problem::Fixture {
+            data,
+            topo,
+            scene,
+            edges,
+            fields,
+        } = crate::problem::fixture(case);
         let Stress::Nodal { values, .. } = fields.stress else {
             panic!("nodal stress expected")
         };

@@ -624,7 +624,6 @@ fn condense_element(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::read::scene::load_scene;
 
     /// The condensed solve (interior DOFs eliminated cell by cell) and the solve of the whole
     /// system give the same minimiser: the same coefficients to 1e-10 relative, the same
@@ -639,17 +638,13 @@ mod tests {
             ("block_skfem_p1", Norm::Energy),
             ("block_skfem_p1_coulomb", Norm::Robust),
         ] {
-            let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("fixtures")
-                .join(case);
-            let vtu = crate::read::vtu::read_vtu(&dir.join("solution.vtu")).unwrap();
-            let data = crate::mesh::build(vtu).unwrap();
-            let topo = crate::topology::build(&data).unwrap();
-            let scene = load_scene(&dir.join("scene.toml")).unwrap();
-            let fields = crate::problem::select_fields(&data, &scene).unwrap();
-            let edges = crate::problem::classify(&data, &topo, &scene)
-                .unwrap()
-                .edges;
+            let crate::problem::Fixture {
+                data,
+                topo,
+                scene,
+                edges,
+                fields,
+            } = crate::problem::fixture(case);
             let ctx = Context::new(&data.mesh, &topo, &scene, &edges, norm);
             let u = fields.displacement.unwrap();
             for order in [RtOrder::Rt1, RtOrder::Rt2] {
