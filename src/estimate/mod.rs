@@ -193,6 +193,7 @@ pub struct Estimate {
 
 pub mod bound;
 pub mod boundary;
+pub mod bubble;
 pub mod interior;
 pub mod lift;
 pub mod reaction;
