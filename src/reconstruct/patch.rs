@@ -199,7 +199,10 @@ pub fn reconstruct(
             fill[v as usize] += 1;
         }
     }
-    let weak_symmetry = mesh.degree >= 2;
+    // P1 patches keep the weak symmetry too, with the cell shares of their rotation moments
+    // as the symmetry rows' right-hand sides (`rotation_shares`): ψ_a ρ₃ is not in the P1
+    // space, so ∫_T as τ_a = 0 would make most P1 patches infeasible.
+    let weak_symmetry = mesh.degree >= 2 || order.k() >= 1;
     let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
     // Rotation moments about one point for all patches (the flows compare them).
     let origin = {
@@ -244,7 +247,22 @@ pub fn reconstruct(
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
     // residual of the new solution is balanced again, up to FLOW_PASSES times.
     // The flow loads, one per patch and cell (the slots of `members`), summed over the passes.
-    let mut extra: Vec<Extra> = vec![[0.0; 3]; members.len()];
+    let mut extra: Vec<Extra> = vec![[0.0; 4]; members.len()];
+    if weak_symmetry && mesh.degree == 1 {
+        let shares: Vec<[f64; 3]> = (0..mesh.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|t| rotation_shares(ctx, u, t))
+            .collect();
+        for (t, sh) in shares.iter().enumerate() {
+            for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
+                let range = count[v as usize] as usize..count[v as usize + 1] as usize;
+                if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t as u32) {
+                    extra[range.start + slot][3] = -sh[j];
+                }
+            }
+        }
+    }
     let mut passes = 0;
     // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
     let mut flow_cache = flow::FlowCache::default();
@@ -277,6 +295,24 @@ pub fn reconstruct(
                 .copied()
                 .filter(|&c| c != NONE)
                 .collect();
+            // With the weak symmetry a rotation moment moves through the symmetry rows: patch
+            // a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so every cell's
+            // sum stays 0 and div σ_h is untouched (no body load to carry).
+            let y = if weak_symmetry && !cells.is_empty() {
+                let share = y[2] / cells.len() as f64;
+                for &t in &cells {
+                    for (vertex, sign) in [(a as usize, 1.0), (b as usize, -1.0)] {
+                        let range = count[vertex] as usize..count[vertex + 1] as usize;
+                        if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t)
+                        {
+                            extra[range.start + slot][3] += sign * share;
+                        }
+                    }
+                }
+                [y[0], y[1], 0.0]
+            } else {
+                y
+            };
             let Some(h) = edge_load(ctx, &cells, y, origin) else {
                 continue;
             };
@@ -411,7 +447,7 @@ struct PatchSetup<'a> {
 
 /// An added body load on one cell of a patch: c₀e_x + c₁e_y + c₂(x − x_T)^⊥ with x_T the cell's
 /// [`anchor`] (flow.rs).
-type Extra = [f64; 3];
+type Extra = [f64; 4];
 
 /// Patches solved at once in the last stage, whose cell coefficients are then summed.
 const FINAL_CHUNK: usize = 16_384;
@@ -654,6 +690,7 @@ fn solve_patch(
             c0: [0.0; 2 * MAX_RT_DOFS],
             g: [[0.0; MAX_MOMENTS]; 2],
             srow: [0.0; 2 * MAX_RT_DOFS],
+            asym: extra.get(ci).map_or(0.0, |e| e[3]),
             kernel: interior_base + ci * 2 * nz,
             rigid: [[[0.0; 3]; 2]; 3],
         };
@@ -971,11 +1008,12 @@ fn solve_patch(
                         .sum();
                 }
             }
-            let d = -part.srow[..nl]
-                .iter()
-                .zip(&part.c0[..nl])
-                .map(|(a, b)| a * b)
-                .sum::<f64>();
+            let d = part.asym
+                - part.srow[..nl]
+                    .iter()
+                    .zip(&part.c0[..nl])
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>();
             push_row(&g_red[..nr], d);
         }
         parts.push(part);
@@ -1071,7 +1109,7 @@ fn solve_patch(
             }
         }
         if weak_symmetry {
-            let (mut sres, mut abs) = (0.0, 0.0);
+            let (mut sres, mut abs) = (-part.asym, part.asym.abs());
             for r in 0..2 {
                 for i in 0..nloc {
                     let v = part.srow[r * nloc + i] * c[r][i];
@@ -1118,6 +1156,74 @@ fn solve_patch(
     }
 }
 
+/// The cell shares α_{a,T} of the rotation moments of the P1 patch loads, for the three
+/// vertices a of cell `t` (docs/design.md §5.10, "Weak symmetry on P1"): with ρ_a = (x − x_a)^⊥,
+///
+/// ```text
+/// α_{a,T} = −∫_T ψ_a f·ρ_a + Σ_{E ⊂ ∂T interior, E ∋ a} ½ ∫_E ψ_a (σ_T − σ_T′) n_T·ρ_a,
+/// ```
+///
+/// σ = Cε(u_h) (constant per P1 cell). They sum to 0 over the vertices of T (Σ_a ψ_a ρ_a = 0
+/// and σ symmetric), and over the cells of a patch to the rotation moment ∫ target·ρ_a − the
+/// patch's boundary fluxes ψ_a σ_T n·ρ_a, so the symmetry rows ∫_T as τ_a = α_{a,T} make the
+/// rotation balance of every patch hold up to its boundary-data mismatch, without the Galerkin
+/// property for ψ_a ρ (not in the P1 space) and without moving rotation moments far.
+fn rotation_shares(ctx: &Context, u: &[[f64; 2]], t: usize) -> [f64; 3] {
+    let mesh = ctx.mesh;
+    let topo = ctx.topo;
+    let el = ctx.elastic;
+    let stress_of = |c: usize| -> [f64; 4] {
+        let fam = mesh.family[c];
+        let x = mesh.coords(c);
+        let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[c], 0, [1.0 / 3.0; 2]);
+        let gu = sp.gradient_at(mesh.nodes(c), u);
+        let sym = 0.5 * (gu[0][1] + gu[1][0]);
+        el.stress([gu[0][0], sym, sym, gu[1][1]])
+    };
+    let fam = mesh.family[t];
+    let x = mesh.coords(t);
+    let v = [x[0], x[1], x[2]];
+    let mut alpha = [0.0; 3];
+    if let Some(fe) = ctx.scene.body_force.as_ref() {
+        let constant = fe[0].is_constant() && fe[1].is_constant();
+        let rule = triangle_rule_cached(if constant { 2 } else { LOAD_DEGREE });
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, xi);
+            let w = wq * sp.jac.det;
+            let f = [fe[0].eval(sp.x[0], sp.x[1], 0.0), fe[1].eval(sp.x[0], sp.x[1], 0.0)];
+            let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            for j in 0..3 {
+                let rho = [-(sp.x[1] - v[j][1]), sp.x[0] - v[j][0]];
+                alpha[j] -= w * lam[j] * (f[0] * rho[0] + f[1] * rho[1]);
+            }
+        }
+    }
+    let s_t = stress_of(t);
+    for l in 0..3 {
+        let e = topo.cell_edges[t][l] as usize;
+        let [c0, c1] = topo.edge_cells[e];
+        let other = if c0 as usize == t { c1 } else { c0 };
+        if other == NONE {
+            continue;
+        }
+        let s_o = stress_of(other as usize);
+        let (p, q, r) = (v[l], v[(l + 1) % 3], v[(l + 2) % 3]);
+        // Outward normal times |E|: the edge vector turned away from the third vertex.
+        let mut n = [q[1] - p[1], p[0] - q[0]];
+        if n[0] * (r[0] - p[0]) + n[1] * (r[1] - p[1]) > 0.0 {
+            n = [-n[0], -n[1]];
+        }
+        let d = [s_t[0] - s_o[0], s_t[1] - s_o[1], s_t[2] - s_o[2], s_t[3] - s_o[3]];
+        let jump = [d[0] * n[0] + d[1] * n[1], d[2] * n[0] + d[3] * n[1]];
+        // ∫_E ψ_a (x − x_a)^⊥ ds = |E|/6 (x_b − x_a)^⊥ (|E| is in n).
+        for (a, b, j) in [(p, q, l), (q, p, (l + 1) % 3)] {
+            let perp = [-(b[1] - a[1]), b[0] - a[0]];
+            alpha[j] += 0.5 * (jump[0] * perp[0] + jump[1] * perp[1]) / 6.0;
+        }
+    }
+    alpha
+}
+
 /// The defect of a patch that was not solved: max |balance| relative to its terms (a balanced
 /// patch without inequalities is solvable, design §5.10).
 fn relative_balance(balance: [f64; 3], scale: f64) -> f64 {
@@ -1136,6 +1242,9 @@ struct CellPart {
     g: [[f64; MAX_MOMENTS]; 2],
     /// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions.
     srow: [f64; 2 * MAX_RT_DOFS],
+    /// Its right-hand side: the rotation moment this patch carries on T for its neighbours
+    /// (the flows' as-moments; 0 without flows).
+    asym: f64,
     /// First patch unknown of the cell's free interior values (row r at + r·nz).
     kernel: usize,
     /// e_x, e_y, (x − x₀)^⊥/L in the moments 1, ξ, η per row (exact on straight cells).
