@@ -14,8 +14,8 @@
 //!
 //! * setup: `mesh::build`, `topology::build`, `select_fields`, `classify`, `Context::new`
 //!   and the nodal admissibility check of u (`projection::nodal_violations`);
-//! * patch: `reconstruct::patch::reconstruct` (order `patch::order_for_degree`: RT_1 for P1,
-//!   RT_2 for P2);
+//! * patch: `reconstruct::patch::reconstruct` (order `patch::default_order`: RT_2, on P1 with
+//!   the weak symmetry of the rotation shares);
 //! * F: `estimate::interior` + `estimate::boundary` at (u_h, σ_h);
 //! * bound: `estimate::bound::bound` (with the per-cell symmetric correction);
 //!
@@ -192,7 +192,7 @@ fn child(spec: &str) {
         let u = fields.displacement.as_deref().expect("a displacement");
         let violations = projection::nodal_violations(&ctx, u);
         let (t1, c1) = (Instant::now(), cpu());
-        let r = patch::reconstruct(&ctx, u, patch::order_for_degree(data.mesh.degree)).unwrap();
+        let r = patch::reconstruct(&ctx, u, patch::default_order(data.mesh.degree)).unwrap();
         let (t2, c2) = (Instant::now(), cpu());
         let sigma = StressField::Rt(&r.stress);
         // `estimate::run`, split at the bound.
@@ -231,7 +231,7 @@ fn child(spec: &str) {
         out = json!({
             "cells": data.mesh.cells.len(), "points": data.mesh.points.len(),
             "degree": degree, "threads": threads, "reps": reps,
-            "order": patch::order_for_degree(data.mesh.degree).k(),
+            "order": patch::default_order(data.mesh.degree).k(),
             "patches": i.patches, "max_unknowns": i.max_unknowns, "active": i.active,
             "unsettled": i.unsettled, "incompatible": i.incompatible,
             "max_defect": i.max_defect, "weak_symmetry": i.weak_symmetry,

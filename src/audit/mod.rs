@@ -115,7 +115,7 @@ impl Options {
             (Source::Patch, Some(k)) if !(1..=2).contains(&k) => {
                 return Err(Error::Usage(format!(
                     "--degree {k} with --stress patch: RT_1 and RT_2 are available (default: \
-                     the displacement degree)"
+                     RT_2)"
                 )));
             }
             (Source::Patch, _) => {}
@@ -555,7 +555,10 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         Source::Auto => false,
         _ => false,
     };
-    let patch_order = reconstruct::patch::order_for_degree(opts.degree.unwrap_or(data.mesh.degree));
+    let patch_order = opts.degree.map_or_else(
+        || reconstruct::patch::default_order(data.mesh.degree),
+        reconstruct::patch::order_for_degree,
+    );
     let mut patch_info = None;
     let reconstruction = match &reconstruct_reason {
         None => None,

@@ -125,7 +125,7 @@ pub struct EstimateArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub displacement: Source,
     /// Degree k of the RT_k stress reconstruction: 0 or 1, default displacement degree − 1;
-    /// with `--stress patch` 1 or 2, default the displacement degree.
+    /// with `--stress patch` 1 or 2, default 2 (RT_2; on P1 with the weak symmetry).
     #[arg(long, value_name = "k")]
     pub degree: Option<usize>,
     /// Mark cells for refinement by Dörfler's bulk criterion with parameter θ ∈ (0, 1].

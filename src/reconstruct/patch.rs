@@ -143,10 +143,19 @@ fn project_points(k: usize, points: &[f64], g: impl Fn(f64) -> f64) -> [f64; 3] 
     out
 }
 
-/// The RT order of the patch reconstruction for displacement degree p. RT_p is the right one
-/// (ψ_a Cε(u_h) has degree p, so RT_p reproduces an exact stress; design §5.10): p = 1 (and
-/// p = 0) gets RT_1 (k ≥ 1 keeps the rigid motions in the moments), p ≥ 2 gets RT_2, the
-/// highest order available.
+/// The RT order of the patch reconstruction without `--degree`: RT_2 for every displacement
+/// degree. On P2 it is RT_p (ψ_a Cε(u_h) has degree p, so RT_p reproduces an exact stress); on
+/// P1 it is one more than needed for exactness, for the weak symmetry with the rotation shares
+/// of the P1 patches (`rotation_shares`), which makes every cell exactly symmetric: on the
+/// manufactured P1 family the index went 4.81 / 4.04 / 3.81 / 3.71 (RT_1, Korn asymmetry term)
+/// → 3.14 / 2.39 / 1.79 / 1.61 (design §5.10). With RT_1 the weak symmetry made it worse
+/// (4.54 … 4.11): too few free values per cell to be symmetric and equilibrated.
+pub fn default_order(_p: usize) -> RtOrder {
+    RtOrder::Rt2
+}
+
+/// The RT order asked for with `--degree p`: RT_1 for p ≤ 1 (k ≥ 1 keeps the rigid motions in
+/// the moments), RT_2 for p ≥ 2, the highest order available.
 pub fn order_for_degree(p: usize) -> RtOrder {
     if p >= 2 { RtOrder::Rt2 } else { RtOrder::Rt1 }
 }
@@ -199,7 +208,10 @@ pub fn reconstruct(
             fill[v as usize] += 1;
         }
     }
-    let weak_symmetry = mesh.degree >= 2;
+    // P1 patches with RT_2 keep the weak symmetry too, with the cell shares of their rotation
+    // moments as the symmetry rows' right-hand sides (`rotation_shares`): ψ_a ρ₃ is not in the
+    // P1 space, so ∫_T as τ_a = 0 would make most P1 patches infeasible.
+    let weak_symmetry = mesh.degree >= 2 || order.k() >= 2;
     let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
     // Rotation moments about one point for all patches (the flows compare them).
     let origin = {
@@ -235,16 +247,32 @@ pub fn reconstruct(
         let ex = extra.get(range.clone()).unwrap_or(&[]);
         solve_patch(ctx, u, &setup, v as u32, &members[range], ex, balance_only)
     };
+    // The flow loads, one per patch and cell (the slots of `members`), summed over the passes;
+    // on P1 with the weak symmetry they start with the cell shares of the rotation moments.
+    let mut extra: Vec<Extra> = vec![[0.0; 4]; members.len()];
+    if weak_symmetry && mesh.degree == 1 {
+        let shares: Vec<[f64; 3]> = (0..mesh.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|t| rotation_shares(ctx, u, &condition, t))
+            .collect();
+        for (t, sh) in shares.iter().enumerate() {
+            for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
+                let range = count[v as usize] as usize..count[v as usize + 1] as usize;
+                if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t as u32) {
+                    extra[range.start + slot][3] = sh[j];
+                }
+            }
+        }
+    }
     let mut outs: Vec<PatchOut> = (0..vertices.len())
         .into_par_iter()
         .with_min_len(64)
-        .map(|i| solve_one(i, &[], true))
+        .map(|i| solve_one(i, &extra, true))
         .collect();
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
     // residual of the new solution is balanced again, up to FLOW_PASSES times.
-    // The flow loads, one per patch and cell (the slots of `members`), summed over the passes.
-    let mut extra: Vec<Extra> = vec![[0.0; 3]; members.len()];
     let mut passes = 0;
     // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
     let mut flow_cache = flow::FlowCache::default();
@@ -277,6 +305,23 @@ pub fn reconstruct(
                 .copied()
                 .filter(|&c| c != NONE)
                 .collect();
+            // With the weak symmetry a rotation moment moves through the symmetry rows: patch
+            // a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so every cell's
+            // sum stays 0 and div σ_h is untouched (no body load to carry).
+            let y = if weak_symmetry && !cells.is_empty() {
+                let share = y[2] / cells.len() as f64;
+                for &t in &cells {
+                    for (vertex, sign) in [(a as usize, 1.0), (b as usize, -1.0)] {
+                        let range = count[vertex] as usize..count[vertex + 1] as usize;
+                        if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t) {
+                            extra[range.start + slot][3] += sign * share;
+                        }
+                    }
+                }
+                [y[0], y[1], 0.0]
+            } else {
+                y
+            };
             let Some(h) = edge_load(ctx, &cells, y, origin) else {
                 continue;
             };
@@ -411,7 +456,7 @@ struct PatchSetup<'a> {
 
 /// An added body load on one cell of a patch: c₀e_x + c₁e_y + c₂(x − x_T)^⊥ with x_T the cell's
 /// [`anchor`] (flow.rs).
-type Extra = [f64; 3];
+type Extra = [f64; 4];
 
 /// Patches solved at once in the last stage, whose cell coefficients are then summed.
 const FINAL_CHUNK: usize = 16_384;
@@ -654,6 +699,7 @@ fn solve_patch(
             c0: [0.0; 2 * MAX_RT_DOFS],
             g: [[0.0; MAX_MOMENTS]; 2],
             srow: [0.0; 2 * MAX_RT_DOFS],
+            asym: extra.get(ci).map_or(0.0, |e| e[3]),
             kernel: interior_base + ci * 2 * nz,
             rigid: [[[0.0; 3]; 2]; 3],
         };
@@ -971,11 +1017,12 @@ fn solve_patch(
                         .sum();
                 }
             }
-            let d = -part.srow[..nl]
-                .iter()
-                .zip(&part.c0[..nl])
-                .map(|(a, b)| a * b)
-                .sum::<f64>();
+            let d = part.asym
+                - part.srow[..nl]
+                    .iter()
+                    .zip(&part.c0[..nl])
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>();
             push_row(&g_red[..nr], d);
         }
         parts.push(part);
@@ -1071,7 +1118,7 @@ fn solve_patch(
             }
         }
         if weak_symmetry {
-            let (mut sres, mut abs) = (0.0, 0.0);
+            let (mut sres, mut abs) = (-part.asym, part.asym.abs());
             for r in 0..2 {
                 for i in 0..nloc {
                     let v = part.srow[r * nloc + i] * c[r][i];
@@ -1118,6 +1165,132 @@ fn solve_patch(
     }
 }
 
+/// The cell shares α_{a,T} of the rotation moments of the P1 patch loads, for the three
+/// vertices a of cell `t` (docs/design.md §5.10, "Weak symmetry on P1"): with ρ_a = (x − x_a)^⊥,
+///
+/// ```text
+/// α_{a,T} = −∫_T ψ_a f·ρ_a + Σ_{E ⊂ ∂T interior, E ∋ a} ½ ∫_E ψ_a (σ_T − σ_T′) n_T·ρ_a,
+/// ```
+///
+/// σ = Cε(u_h) (constant per P1 cell). They sum to 0 over the vertices of T (Σ_a ψ_a ρ_a = 0
+/// and σ symmetric), and over the cells of a patch to the rotation moment ∫ target·ρ_a − the
+/// patch's boundary fluxes ψ_a σ_T n·ρ_a, so the symmetry rows ∫_T as τ_a = α_{a,T} make the
+/// rotation balance of every patch hold up to its boundary-data mismatch, without the Galerkin
+/// property for ψ_a ρ (not in the P1 space) and without moving rotation moments far.
+fn rotation_shares(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    condition: &[Option<Condition>],
+    t: usize,
+) -> [f64; 3] {
+    let mesh = ctx.mesh;
+    let topo = ctx.topo;
+    let el = ctx.elastic;
+    let stress_of = |c: usize| -> [f64; 4] {
+        let fam = mesh.family[c];
+        let x = mesh.coords(c);
+        let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[c], 0, [1.0 / 3.0; 2]);
+        let gu = sp.gradient_at(mesh.nodes(c), u);
+        let sym = 0.5 * (gu[0][1] + gu[1][0]);
+        el.stress([gu[0][0], sym, sym, gu[1][1]])
+    };
+    let fam = mesh.family[t];
+    let x = mesh.coords(t);
+    let v = [x[0], x[1], x[2]];
+    let mut alpha = [0.0; 3];
+    if let Some(fe) = ctx.scene.body_force.as_ref() {
+        let constant = fe[0].is_constant() && fe[1].is_constant();
+        let rule = triangle_rule_cached(if constant { 2 } else { LOAD_DEGREE });
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, xi);
+            let w = wq * sp.jac.det;
+            let f = [
+                fe[0].eval(sp.x[0], sp.x[1], 0.0),
+                fe[1].eval(sp.x[0], sp.x[1], 0.0),
+            ];
+            let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            for j in 0..3 {
+                let rho = [-(sp.x[1] - v[j][1]), sp.x[0] - v[j][0]];
+                alpha[j] -= w * lam[j] * (f[0] * rho[0] + f[1] * rho[1]);
+            }
+        }
+    }
+    let s_t = stress_of(t);
+    for l in 0..3 {
+        let e = topo.cell_edges[t][l] as usize;
+        let [c0, c1] = topo.edge_cells[e];
+        let other = if c0 as usize == t { c1 } else { c0 };
+        let (p, q, r) = (v[l], v[(l + 1) % 3], v[(l + 2) % 3]);
+        // Outward normal times |E|: the edge vector turned away from the third vertex.
+        let mut n = [q[1] - p[1], p[0] - q[0]];
+        if n[0] * (r[0] - p[0]) + n[1] * (r[1] - p[1]) > 0.0 {
+            n = [-n[0], -n[1]];
+        }
+        let sn = [s_t[0] * n[0] + s_t[1] * n[1], s_t[2] * n[0] + s_t[3] * n[1]];
+        // (σ_T − ḡ)n|E| with a flux ḡ common to the edge's vertices (so the shares of T still
+        // sum to 0): the mean of the two cells inside, the patch's own boundary flux outside
+        // (t on Neumann, 0 on free edges, the normal part on frictionless contact, anything
+        // on Dirichlet edges, whose patches take any load).
+        let len = n[0].hypot(n[1]);
+        let un = [n[0] / len, n[1] / len];
+        let mut traction: Option<&[crate::expr::Expr; 2]> = None;
+        let jump = if other != NONE {
+            let s_o = stress_of(other as usize);
+            let d = [
+                s_t[0] - s_o[0],
+                s_t[1] - s_o[1],
+                s_t[2] - s_o[2],
+                s_t[3] - s_o[3],
+            ];
+            [
+                0.5 * (d[0] * n[0] + d[1] * n[1]),
+                0.5 * (d[2] * n[0] + d[3] * n[1]),
+            ]
+        } else {
+            match condition[e].unwrap_or(Condition::Free) {
+                Condition::Free => sn,
+                Condition::Dirichlet(_) => [0.0; 2],
+                Condition::Neumann(b) => {
+                    if let BoundaryKind::Neumann { traction: tr } = &ctx.scene.boundaries[b].kind {
+                        traction = Some(tr);
+                    }
+                    sn
+                }
+                Condition::Contact(b) => {
+                    let BoundaryKind::Contact(spec) = &ctx.scene.boundaries[b].kind else {
+                        continue;
+                    };
+                    if spec.friction > 0.0 {
+                        [0.0; 2]
+                    } else {
+                        let cn = spec.direction(un);
+                        let snn = sn[0] * cn[0] + sn[1] * cn[1];
+                        [sn[0] - snn * cn[0], sn[1] - snn * cn[1]]
+                    }
+                }
+            }
+        };
+        // ∫_E ψ_a (x − x_a)^⊥ ds = |E|/6 (x_b − x_a)^⊥ (|E| is in n).
+        for (a, b, j) in [(p, q, l), (q, p, (l + 1) % 3)] {
+            let perp = [-(b[1] - a[1]), b[0] - a[0]];
+            alpha[j] += (jump[0] * perp[0] + jump[1] * perp[1]) / 6.0;
+        }
+        // − ∫_E ψ_a t·(x − x_a)^⊥ ds on a Neumann edge, by Gauss–Legendre.
+        if let Some(tr) = traction {
+            let rule = crate::quadrature::line_rule_cached(LOAD_DEGREE);
+            for (&sg, &wg) in rule.points.iter().zip(&rule.weights) {
+                let xs = [p[0] + sg * (q[0] - p[0]), p[1] + sg * (q[1] - p[1])];
+                let tv = [tr[0].eval(xs[0], xs[1], 0.0), tr[1].eval(xs[0], xs[1], 0.0)];
+                for (a, j, psi) in [(p, l, 1.0 - sg), (q, (l + 1) % 3, sg)] {
+                    let rho = [-(xs[1] - a[1]), xs[0] - a[0]];
+                    alpha[j] -= wg * len * psi * (tv[0] * rho[0] + tv[1] * rho[1]);
+                }
+            }
+        }
+    }
+    alpha
+}
+
 /// The defect of a patch that was not solved: max |balance| relative to its terms (a balanced
 /// patch without inequalities is solvable, design §5.10).
 fn relative_balance(balance: [f64; 3], scale: f64) -> f64 {
@@ -1136,6 +1309,9 @@ struct CellPart {
     g: [[f64; MAX_MOMENTS]; 2],
     /// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions.
     srow: [f64; 2 * MAX_RT_DOFS],
+    /// Its right-hand side: the rotation moment this patch carries on T for its neighbours
+    /// (the flows' as-moments; 0 without flows).
+    asym: f64,
     /// First patch unknown of the cell's free interior values (row r at + r·nz).
     kernel: usize,
     /// e_x, e_y, (x − x₀)^⊥/L in the moments 1, ξ, η per row (exact on straight cells).
@@ -1150,6 +1326,104 @@ fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rotation shares of a P1 fixture with body force, Neumann, contact and Dirichlet
+    /// edges: (1) they sum to 0 over each cell's vertices (Σ_a ψ_a (x − x_a)^⊥ = 0 pointwise and
+    /// σ symmetric); (2) at an interior vertex a they sum over the patch to ∫_{ω_a} target·ρ_a,
+    /// target = −ψ_a f + Cε(u_h)∇ψ_a, integrated here directly (the shares use the divergence
+    /// theorem and the flux jumps instead).
+    #[test]
+    fn rotation_shares_cancel_per_cell_and_carry_the_patch_moment() {
+        let crate::problem::Fixture {
+            data,
+            topo,
+            scene,
+            edges,
+            fields,
+        } = crate::problem::fixture("manufactured_frictionless_p1_n08");
+        let ctx = Context::new(
+            &data.mesh,
+            &topo,
+            &scene,
+            &edges,
+            crate::read::scene::Norm::Energy,
+        );
+        let u = fields.displacement.unwrap();
+        let mesh = ctx.mesh;
+        let mut condition: Vec<Option<Condition>> = vec![None; topo.edges.len()];
+        for be in &edges {
+            condition[be.edge as usize] = Some(be.condition);
+        }
+        let shares: Vec<[f64; 3]> = (0..mesh.len())
+            .map(|t| rotation_shares(&ctx, &u, &condition, t))
+            .collect();
+        let mut largest = 0.0f64;
+        for sh in &shares {
+            let abs: f64 = sh.iter().map(|a| a.abs()).sum();
+            largest = largest.max(abs);
+            assert!(
+                (sh[0] + sh[1] + sh[2]).abs() <= 1e-12 * abs.max(1e-300),
+                "{sh:?}"
+            );
+        }
+        assert!(largest > 0.0);
+        let mut boundary = vec![false; mesh.points.len()];
+        for &[a, b] in topo
+            .edges
+            .iter()
+            .enumerate()
+            .filter(|(e, _)| topo.is_boundary(*e))
+            .map(|(_, ab)| ab)
+        {
+            boundary[a as usize] = true;
+            boundary[b as usize] = true;
+        }
+        let fe = scene.body_force.as_ref().expect("a body force");
+        let rule = triangle_rule_cached(LOAD_DEGREE);
+        let mut checked = 0;
+        for a in 0..mesh.points.len() {
+            if boundary[a] {
+                continue;
+            }
+            let (mut from_shares, mut direct, mut scale) = (0.0, 0.0, 0.0f64);
+            for t in 0..mesh.len() {
+                let Some(j) = mesh.nodes(t)[..3].iter().position(|&v| v as usize == a) else {
+                    continue;
+                };
+                from_shares += shares[t][j];
+                let fam = mesh.family[t];
+                let x = mesh.coords(t);
+                let xa = x[j];
+                for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+                    let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, xi);
+                    let w = wq * sp.jac.det;
+                    let gu = sp.gradient_at(mesh.nodes(t), &u);
+                    let sym = 0.5 * (gu[0][1] + gu[1][0]);
+                    let sig = ctx.elastic.stress([gu[0][0], sym, sym, gu[1][1]]);
+                    let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+                    let glam = [[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]];
+                    let g = sp.jac.physical_gradient(glam[j]);
+                    let f = [
+                        fe[0].eval(sp.x[0], sp.x[1], 0.0),
+                        fe[1].eval(sp.x[0], sp.x[1], 0.0),
+                    ];
+                    let target = [
+                        -lam[j] * f[0] + sig[0] * g[0] + sig[1] * g[1],
+                        -lam[j] * f[1] + sig[2] * g[0] + sig[3] * g[1],
+                    ];
+                    let rho = [-(sp.x[1] - xa[1]), sp.x[0] - xa[0]];
+                    direct += w * (target[0] * rho[0] + target[1] * rho[1]);
+                    scale += w * (target[0].abs() + target[1].abs()) * rho[0].hypot(rho[1]);
+                }
+            }
+            assert!(
+                (from_shares - direct).abs() <= 1e-11 * scale,
+                "vertex {a}: shares {from_shares}, direct {direct} (scale {scale})"
+            );
+            checked += 1;
+        }
+        assert!(checked > 20, "{checked} interior vertices");
+    }
 
     #[test]
     fn projection_onto_polynomials_reproduces_them() {
