@@ -44,7 +44,7 @@ use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
-    EDGE_DEGREE, FLOW_PASSES, LOAD_DEGREE, MIN_CONE_FRICTION, PATCH_DEFECT_RELATIVE,
+    EDGE_DEGREE, FLOW_PASSES, GAP_RELATIVE, LOAD_DEGREE, MIN_CONE_FRICTION, PATCH_DEFECT_RELATIVE,
     PATCH_DEPENDENT_ROW,
 };
 
@@ -251,10 +251,20 @@ pub fn reconstruct(
     // on P1 with the weak symmetry they start with the cell shares of the rotation moments.
     let mut extra: Vec<Extra> = vec![[0.0; 4]; members.len()];
     if weak_symmetry && mesh.degree == 1 {
+        // GAP_RELATIVE of max |u_h| on the contact edges: a gap that counts as closed.
+        let gap_tolerance = GAP_RELATIVE
+            * ctx
+                .edges
+                .iter()
+                .filter(|be| matches!(be.condition, Condition::Contact(_)))
+                .flat_map(|be| mesh.nodes(be.cell as usize)[..3].to_vec())
+                .fold(0.0f64, |m, n| {
+                    m.max(u[n as usize][0].abs()).max(u[n as usize][1].abs())
+                });
         let shares: Vec<[f64; 3]> = (0..mesh.len())
             .into_par_iter()
             .with_min_len(256)
-            .map(|t| rotation_shares(ctx, u, &condition, t))
+            .map(|t| rotation_shares(ctx, u, &condition, gap_tolerance, t))
             .collect();
         for (t, sh) in shares.iter().enumerate() {
             for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
@@ -1181,6 +1191,7 @@ fn rotation_shares(
     ctx: &Context,
     u: &[[f64; 2]],
     condition: &[Option<Condition>],
+    gap_tolerance: f64,
     t: usize,
 ) -> [f64; 3] {
     let mesh = ctx.mesh;
@@ -1260,13 +1271,29 @@ fn rotation_shares(
                     let BoundaryKind::Contact(spec) = &ctx.scene.boundaries[b].kind else {
                         continue;
                     };
-                    if spec.friction > 0.0 {
-                        [0.0; 2]
-                    } else {
-                        let cn = spec.direction(un);
-                        let snn = sn[0] * cn[0] + sn[1] * cn[1];
-                        [sn[0] - snn * cn[0], sn[1] - snn * cn[1]]
-                    }
+                    // ḡ: the traction of u_h made admissible (compressive, inside the cone)
+                    // where u_h is in contact (at each end, closed within GAP_RELATIVE), none
+                    // where the gap is open: a share the patch cannot meet with its
+                    // constrained flux would be paid in the complementarity pairing (Hertz P1:
+                    // c = 0.045 with the pressure on every contact edge, 3e-6 with this; the
+                    // manufactured family needs it in its contact zone).
+                    let cn = spec.direction(un);
+                    let ct = [-cn[1], cn[0]];
+                    let closed = |x: [f64; 2], node: u32| {
+                        let un = u[node as usize][0] * cn[0] + u[node as usize][1] * cn[1];
+                        spec.gap_at(x, cn) - un <= gap_tolerance
+                    };
+                    let nodes = mesh.nodes(t);
+                    let theta = 0.5
+                        * (f64::from(u8::from(closed(p, nodes[l])))
+                            + f64::from(u8::from(closed(q, nodes[(l + 1) % 3]))));
+                    let snn = (sn[0] * cn[0] + sn[1] * cn[1]).min(0.0);
+                    let cone = spec.friction * snn.abs();
+                    let stt = (sn[0] * ct[0] + sn[1] * ct[1]).clamp(-cone, cone);
+                    [
+                        sn[0] - theta * (snn * cn[0] + stt * ct[0]),
+                        sn[1] - theta * (snn * cn[1] + stt * ct[1]),
+                    ]
                 }
             }
         };
@@ -1355,7 +1382,7 @@ mod tests {
             condition[be.edge as usize] = Some(be.condition);
         }
         let shares: Vec<[f64; 3]> = (0..mesh.len())
-            .map(|t| rotation_shares(&ctx, &u, &condition, t))
+            .map(|t| rotation_shares(&ctx, &u, &condition, 0.0, t))
             .collect();
         let mut largest = 0.0f64;
         for sh in &shares {
