@@ -137,7 +137,7 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
         // Efficiency on the finest mesh against the exact solution: P2 1.86 with the bubble
-        // correction of the oscillation (estimate/bubble.rs), 2.10 without it; P1 1.61 with
+        // correction of the oscillation (estimate/bubble.rs), 2.10 without it; P1 1.56 with
         // the weak symmetry of RT_2, 3.71 with RT_1 and the Korn asymmetry term.
         let index = bounds[3] / truths[3];
         assert!(index <= 2.0, "P{p} n = 32: efficiency index {index}");

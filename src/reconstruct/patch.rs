@@ -148,7 +148,7 @@ fn project_points(k: usize, points: &[f64], g: impl Fn(f64) -> f64) -> [f64; 3] 
 /// P1 it is one more than needed for exactness, for the weak symmetry with the rotation shares
 /// of the P1 patches (`rotation_shares`), which makes every cell exactly symmetric: on the
 /// manufactured P1 family the index went 4.81 / 4.04 / 3.81 / 3.71 (RT_1, Korn asymmetry term)
-/// → 3.14 / 2.39 / 1.79 / 1.61 (design §5.10). With RT_1 the weak symmetry made it worse
+/// → 3.08 / 2.33 / 1.75 / 1.56 (design §5.10). With RT_1 the weak symmetry made it worse
 /// (4.54 … 4.11): too few free values per cell to be symmetric and equilibrated.
 pub fn default_order(_p: usize) -> RtOrder {
     RtOrder::Rt2
@@ -1408,16 +1408,16 @@ mod tests {
         let fe = scene.body_force.as_ref().expect("a body force");
         let rule = triangle_rule_cached(LOAD_DEGREE);
         let mut checked = 0;
-        for a in 0..mesh.points.len() {
-            if boundary[a] {
+        for (a, &on_boundary) in boundary.iter().enumerate() {
+            if on_boundary {
                 continue;
             }
             let (mut from_shares, mut direct, mut scale) = (0.0, 0.0, 0.0f64);
-            for t in 0..mesh.len() {
+            for (t, share) in shares.iter().enumerate() {
                 let Some(j) = mesh.nodes(t)[..3].iter().position(|&v| v as usize == a) else {
                     continue;
                 };
-                from_shares += shares[t][j];
+                from_shares += share[j];
                 let fam = mesh.family[t];
                 let x = mesh.coords(t);
                 let xa = x[j];
