@@ -136,9 +136,9 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
             let rate = log2_ratio(&bounds, 1);
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
-        // Efficiency on the finest mesh against the exact solution: P2 1.86 with the bubble
-        // correction of the oscillation (estimate/bubble.rs), 2.10 without it; P1 1.56 with
-        // the weak symmetry of RT_2, 3.71 with RT_1 and the Korn asymmetry term.
+        // Efficiency on the finest mesh against the exact solution: P2 1.64 (2.10 before the
+        // bubble correction of the oscillation and the per-cell R), P1 1.55 (3.76 with RT_1 and
+        // the Korn asymmetry term).
         let index = bounds[3] / truths[3];
         assert!(index <= 2.0, "P{p} n = 32: efficiency index {index}");
         let (true_rate, rate) = (log2_ratio(&truths, 2), log2_ratio(&bounds, 2));

@@ -1,7 +1,7 @@
 //! The error bound of docs/design.md §6 for the pair (v, τ) evaluated:
 //!
 //! ```text
-//! |||u − v||| ≤ ½ (R + √(R² + 4c)),   R = η_PS + η_osc + η_as,
+//! |||u − v||| ≤ ½ (R + √(R² + 4c)),   R = (Σ_T (η_PS,T + η_osc,T + η_as,T)²)^½,
 //! |||u − u_h||| ≤ |||u − v||| + ‖v − u_h‖_E (projection distance),
 //! ```
 //!
@@ -49,6 +49,11 @@ pub struct BoundTerms {
     pub asymmetry: f64,
     /// ‖v − u_h‖_E when the displacement was projected onto K_u, else 0.
     pub projection: f64,
+    /// R = (Σ_T (η_PS,T + (η_osc,T + η_as,T)/√c_min)²)^½ ≤ η_PS + η_osc + η_as: the three
+    /// terms bound the cell's share of |||w|||² against |||w|||_T, so Cauchy–Schwarz over the
+    /// cells needs only their sum per cell (docs/design.md §6.2).
+    #[serde(default)]
+    pub combined: f64,
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
@@ -70,7 +75,7 @@ pub struct Bound {
     pub statement: String,
     pub terms: Option<BoundTerms>,
     pub failed_hypotheses: Vec<String>,
-    /// Per cell: η_PS,T² + (osc_T + as_T)²/c_min (units of |||·|||²).
+    /// Per cell: (η_PS,T + (osc_T + as_T)/√c_min)², summing to R² (units of |||·|||²).
     pub cells: Vec<f64>,
     /// ½|||v|||², the reference of `relative`.
     #[serde(skip)]
@@ -94,9 +99,9 @@ impl Bound {
     }
 }
 
-/// (½)^½ (½(R + √(R² + 4c)) + ‖v − u_h‖_E), R = η_PS + η_osc + η_as (module doc).
+/// (½)^½ (½(R + √(R² + 4c)) + ‖v − u_h‖_E), R = `combined` (module doc).
 fn energy_error(t: &BoundTerms) -> f64 {
-    let r = t.prager_synge + t.oscillation + t.asymmetry;
+    let r = t.combined;
     let w = 0.5 * (r + (r * r + 4.0 * t.complementarity.max(0.0)).sqrt()) + t.projection;
     0.5f64.sqrt() * w
 }
@@ -335,7 +340,7 @@ pub fn bound(
                     c.symmetrised = true;
                 }
             }
-            c.local = c.ps2 + (c.osc + c.asym).powi(2) / c_min;
+            c.local = (c.ps2.sqrt() + (c.osc + c.asym) / c_min.sqrt()).powi(2);
             c
         })
         .collect();
@@ -352,6 +357,7 @@ pub fn bound(
         oscillation: osc,
         asymmetry: asym,
         projection: lifted.as_ref().map_or(0.0, |l| l.distance),
+        combined: cells.iter().map(|c| c.local).sum::<f64>().sqrt(),
         korn_max,
         symmetrised_cells: cells.iter().filter(|c| c.symmetrised).count(),
     };
@@ -469,6 +475,7 @@ mod tests {
         let terms = BoundTerms {
             prager_synge: 3.0,
             asymmetry: 1.0,
+            combined: 4.0,
             ..Default::default()
         };
         let mut b = Bound {
