@@ -262,3 +262,20 @@ pub const UNCERTIFIED_NEGLIGIBLE: f64 = 1e-8;
 /// it the fit can gain at most ~1 % of the cell's share and costs ~0.2 ms per cell. The bound is
 /// valid with or without it.
 pub const BUBBLE_WORTH: f64 = 1e-2;
+
+/// Samples (ends included) at which u_h must be open for a contact edge to be solved as
+/// traction-free by the patch reconstruction (`reconstruct::patch`): the P2 trace is a quadratic,
+/// so 9 samples see a touching interior point to within (1/8)² of the edge's curvature term.
+pub const EDGE_OPEN_SAMPLES: usize = 9;
+
+/// Relative size (of max |u_h| on Γ_C) above which a gap counts as open for the patch
+/// reconstruction: a contact edge open by more than this at all its samples is solved
+/// traction-free, and the P1 rotation shares put no pressure where an edge end is open by more.
+/// A gap taken for open moves the patch's load defects to the Dirichlet sinks (flows), one taken
+/// for closed allows a pressure that the complementarity pairing pays at the gap: freeing the
+/// far arc of the P2 Hertz files (gaps up to 50 × max |u_h|) took their bound from 0.029 to
+/// 0.018 (index 1.42), while a file lifted off its contact zone by a small perturbation
+/// (perturbed_u_energy) must keep its pressure: freeing at 1e-6 or 1e-3 raised its bound from
+/// 0.0105 to 0.250; at 1e-2 and 1e-1 it is unchanged. The NGSolve penalty P2 file: 0.93 at
+/// 1e-6, 0.072 at 1e-4, 0.0191 from 1e-3 on.
+pub const OPEN_GAP_RELATIVE: f64 = 1e-1;

@@ -209,3 +209,38 @@ fn patch_degree_is_checked_and_the_reason_names_the_option() {
         assert_eq!(r.stress.reason, "asked for with --stress patch");
     }
 }
+
+/// Hertz against the fine scikit-fem reference of `reference/speed_accuracy` (its committed
+/// `results.json`: `err_u_E_file_nodal` of the M0 file, the committed fixture's mesh and
+/// solver, is the true energy error of the file's u_h, computed without fosls): the patch bound
+/// is guaranteed, above the true error and within twice it, on P1 and P2 (measured 1.41 and
+/// 1.43; before the open-arc edges were solved traction-free and the P1 weak symmetry: 3.33
+/// P1 not guaranteed, 2.31 P2).
+#[test]
+fn hertz_patch_bounds_are_guaranteed_and_within_twice_the_true_error() {
+    let results: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("reference/speed_accuracy/results.json")).unwrap(),
+    )
+    .unwrap();
+    for p in [1, 2] {
+        let case = format!("hertz_skfem_p{p}_M0");
+        let truth = results["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["case"] == case.as_str() && r["displacement"] == "file")
+            .and_then(|r| r["err_u_E_file_nodal"].as_f64())
+            .unwrap_or_else(|| panic!("{case}: no reference error"));
+        let file = root().join(format!("fixtures/hertz_skfem_p{p}/solution.vtu"));
+        let (code, r, err) = estimate(&file, &["--stress", "patch"]);
+        assert!(code == 0 || code == 1, "{err}");
+        let b = r.expect("a report").bound;
+        assert!(b.guaranteed, "P{p}: {:?}", b.failed_hypotheses);
+        let e = b.energy_error.expect("a bound");
+        assert!(
+            e >= truth && e <= 2.0 * truth,
+            "P{p}: bound {e}, true error {truth}, index {}",
+            e / truth
+        );
+    }
+}
