@@ -549,9 +549,10 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let use_patch = match opts.stress {
         Source::Patch => true,
         // `auto` keeps the global minimiser: with patch stresses the contact zone read from
-        // the stress moves on two Hertz fixtures (skfem P1 Coulomb −4.2 %, sfepy P2 +10 % of
-        // 2a, against 3 % with the global one), so the switch waits for the zone to be read
-        // from the displacement alone (issue 13, deliverable 3).
+        // the stress moves on Hertz fixtures (sfepy P2 +11.6 % of 2a, re-measured with the
+        // open-edge and P1 changes of session 21; the quadrilateral fixtures have no patch
+        // path), against 3 % with the global one, so the switch waits for the zone to be
+        // read from the displacement alone (issue 13, deliverable 3).
         Source::Auto => false,
         _ => false,
     };
