@@ -140,6 +140,21 @@ pub fn check_environment() -> crate::Result<()> {
         })?),
         None => None,
     };
+    // Under an address-space limit (ulimit -v) a worker whose stack fits can still fail to map
+    // its signal stack, and std panics inside that thread (a second line on stderr) instead
+    // of the pool reporting an error: refuse such a count before starting any thread.
+    if let (Some(n), Some((limit, used))) = (threads, address_space()) {
+        let need = n as u64 * THREAD_ADDRESS_SPACE;
+        if used.saturating_add(need) > limit {
+            return Err(Error::Usage(format!(
+                "cannot start {n} worker threads ({} MiB of stacks on top of {} MiB in use \
+                 exceed the address-space limit of {} MiB); lower RAYON_NUM_THREADS",
+                need >> 20,
+                used >> 20,
+                limit >> 20
+            )));
+        }
+    }
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
         builder = builder.num_threads(n);
@@ -155,6 +170,31 @@ pub fn check_environment() -> crate::Result<()> {
             }
         ))
     })
+}
+
+/// Address space one worker thread maps: std's 2 MiB stack, its guard page and the signal
+/// stack, rounded up.
+const THREAD_ADDRESS_SPACE: u64 = (2 << 20) + (128 << 10);
+
+/// The soft address-space limit and the address space in use, in bytes, when the process has
+/// such a limit (Linux `/proc/self/limits` and `/proc/self/status`); None otherwise.
+fn address_space() -> Option<(u64, u64)> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    let soft = line["Max address space".len()..]
+        .split_whitespace()
+        .next()?;
+    let limit: u64 = soft.parse().ok()?; // "unlimited" does not parse: no limit.
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let vm = status.lines().find(|l| l.starts_with("VmSize:"))?;
+    let kib: u64 = vm["VmSize:".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    Some((limit, kib << 10))
 }
 
 /// Parses a finite number (for thresholds such as `--fail-above`).

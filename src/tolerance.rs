@@ -279,3 +279,10 @@ pub const EDGE_OPEN_SAMPLES: usize = 9;
 /// 0.0105 to 0.250; at 1e-2 and 1e-1 it is unchanged. The NGSolve penalty P2 file: 0.93 at
 /// 1e-6, 0.072 at 1e-4, 0.0191 from 1e-3 on.
 pub const OPEN_GAP_RELATIVE: f64 = 1e-1;
+
+/// A 6-node triangle whose mid nodes are off the edge midpoints by more than this fraction of
+/// its diameter gets the symmetric correction of curved cells in the bound (the exact Piola
+/// map), even when it counts as straight elsewhere: float32 coordinates put mid nodes ~1e-7 off,
+/// and the reference-split correction then left an asymmetry of ~1e-9 of the stress scale on 30
+/// CalculiX CPE6 cells. Double-precision midpoints are off by ~1e-16.
+pub const STRAIGHT_MID_RELATIVE: f64 = 1e-12;
