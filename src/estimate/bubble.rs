@@ -31,25 +31,28 @@ use crate::solve::dense::{cholesky, cholesky_solve};
 /// Degree j of S: δ = b S has degree j + 3 and div δ reaches P_{j+2}.
 pub const S_DEGREE: usize = 3;
 
-/// Exponents e = α + (1, 1, 1), |α| = j, of the scalars q_α = b λ^α = λ^e.
-fn exponents() -> &'static [[u32; 3]] {
-    static E3: std::sync::OnceLock<Vec<[u32; 3]>> = std::sync::OnceLock::new();
-    E3.get_or_init(|| {
-        let j = S_DEGREE as u32;
-        let mut v = Vec::new();
-        for a in (0..=j).rev() {
-            for b in (0..=j - a).rev() {
-                v.push([a + 1, b + 1, j - a - b + 1]);
-            }
-        }
-        v
-    })
-}
+/// Number of scalars q_α, |α| = j.
+const SCALARS: usize = (S_DEGREE + 1) * (S_DEGREE + 2) / 2;
 
 /// Unknowns: the scalars q_α × 3 symmetric components.
-fn unknowns() -> usize {
-    3 * exponents().len()
-}
+const N: usize = 3 * SCALARS;
+
+/// Exponents e = α + (1, 1, 1), |α| = j, of the scalars q_α = b λ^α = λ^e.
+const EXPONENTS: [[u32; 3]; SCALARS] = {
+    let j = S_DEGREE as u32;
+    let mut out = [[0u32; 3]; SCALARS];
+    let (mut i, mut a) = (0, j + 1);
+    while a > 0 {
+        a -= 1;
+        let mut b = j - a + 1;
+        while b > 0 {
+            b -= 1;
+            out[i] = [a + 1, b + 1, j - a - b + 1];
+            i += 1;
+        }
+    }
+    out
+};
 
 /// The symmetric unit tensors E_xx, E_xy, E_yy, row-major [xx, xy, yx, yy].
 const E: [[f64; 4]; 3] = [
@@ -69,21 +72,20 @@ pub struct Point {
 }
 
 /// The fitted correction δ = b S on one straight triangle.
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct Bubble {
-    coef: Vec<f64>,
+    coef: [f64; N],
     /// Physical gradients of λ₀, λ₁, λ₂ (constant on a straight triangle).
     grad: [[f64; 2]; 3],
 }
 
 impl Bubble {
-    /// Basis values β_i (tensors) and divergences at `lam`, i = 3α + c, appended to the
-    /// cleared vectors.
-    fn basis(&self, lam: [f64; 3], val: &mut Vec<[f64; 4]>, div: &mut Vec<[f64; 2]>) {
-        val.clear();
-        div.clear();
+    /// Basis values β_i (tensors) and divergences at `lam`, i = 3α + c.
+    fn basis(&self, lam: [f64; 3]) -> ([[f64; 4]; N], [[f64; 2]; N]) {
+        let mut val = [[0.0; 4]; N];
+        let mut div = [[0.0; 2]; N];
         let pw = |x: f64, n: u32| x.powi(n as i32);
-        for e in exponents() {
+        for (a, e) in EXPONENTS.iter().enumerate() {
             let q = pw(lam[0], e[0]) * pw(lam[1], e[1]) * pw(lam[2], e[2]);
             let mut g = [0.0; 2];
             for m in 0..3 {
@@ -94,18 +96,18 @@ impl Bubble {
                 g[0] += d * self.grad[m][0];
                 g[1] += d * self.grad[m][1];
             }
-            for c in &E {
-                val.push(c.map(|x| x * q));
+            for (c, ec) in E.iter().enumerate() {
+                val[3 * a + c] = ec.map(|x| x * q);
                 // Row r of div(q E) = Σ_s E_rs ∂_s q.
-                div.push([c[0] * g[0] + c[1] * g[1], c[2] * g[0] + c[3] * g[1]]);
+                div[3 * a + c] = [ec[0] * g[0] + ec[1] * g[1], ec[2] * g[0] + ec[3] * g[1]];
             }
         }
+        (val, div)
     }
 
     /// δ and div δ at barycentric coordinates `lam`, row-major [xx, xy, yx, yy].
     pub fn at(&self, lam: [f64; 3]) -> ([f64; 4], [f64; 2]) {
-        let (mut val, mut div) = (Vec::new(), Vec::new());
-        self.basis(lam, &mut val, &mut div);
+        let (val, div) = self.basis(lam);
         let v = std::array::from_fn(|k| self.coef.iter().zip(&val).map(|(c, b)| c * b[k]).sum());
         let d = std::array::from_fn(|k| self.coef.iter().zip(&div).map(|(c, b)| c * b[k]).sum());
         (v, d)
@@ -160,61 +162,55 @@ pub fn fit(verts: [[f64; 2]; 3], el: &Elastic, weight: f64, points: &[Point]) ->
     if !(weight.is_finite() && weight > 0.0) {
         return None;
     }
-    let n = unknowns();
     let mut bubble = Bubble {
-        coef: vec![0.0; n],
+        coef: [0.0; N],
         grad: barycentric_gradients(verts),
     };
     if !bubble.grad.iter().flatten().all(|g| g.is_finite()) {
         return None;
     }
     let dot = |a: &[f64; 4], b: &[f64; 4]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
-    let mut h = vec![0.0; n * n];
-    let mut g = vec![0.0; n];
-    let (mut val, mut div) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    let mut aval = Vec::with_capacity(n);
+    let mut h = [0.0; N * N];
+    let mut g = [0.0; N];
     for p in points {
-        bubble.basis(p.lam, &mut val, &mut div);
-        aval.clear();
-        aval.extend(val.iter().map(|v| el.compliance(*v)));
+        let (val, div) = bubble.basis(p.lam);
+        let aval = val.map(|v| el.compliance(v));
         let am = el.compliance(p.mismatch);
-        for i in 0..n {
+        for i in 0..N {
             g[i] += p.w * (dot(&val[i], &am) + weight * (div[i][0] * p.r[0] + div[i][1] * p.r[1]));
             for k in 0..=i {
-                h[i * n + k] += p.w
+                h[i * N + k] += p.w
                     * (dot(&val[i], &aval[k])
                         + weight * (div[i][0] * div[k][0] + div[i][1] * div[k][1]));
             }
         }
     }
-    for i in 0..n {
-        for k in i + 1..n {
-            h[i * n + k] = h[k * n + i];
+    for i in 0..N {
+        for k in i + 1..N {
+            h[i * N + k] = h[k * N + i];
         }
     }
     // Jacobi scaling: the basis mixes the A-norm and W|div|² scales.
-    let s: Vec<f64> = (0..n)
-        .map(|i| {
-            let d = h[i * n + i];
-            if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
-        })
-        .collect();
+    let s: [f64; N] = std::array::from_fn(|i| {
+        let d = h[i * N + i];
+        if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+    });
     if s.contains(&0.0) {
         return None;
     }
-    for i in 0..n {
-        for k in 0..n {
-            h[i * n + k] *= s[i] * s[k];
+    for i in 0..N {
+        for k in 0..N {
+            h[i * N + k] *= s[i] * s[k];
         }
     }
-    let set: Vec<usize> = (0..n).collect();
-    let mut l = vec![0.0; n * n];
-    if !cholesky(n, &h, &set, &mut l) {
+    let set: [usize; N] = std::array::from_fn(|i| i);
+    let mut l = [0.0; N * N];
+    if !cholesky(N, &h, &set, &mut l) {
         return None;
     }
-    let mut c: Vec<f64> = (0..n).map(|i| -g[i] * s[i]).collect();
-    cholesky_solve(n, n, &l, &mut c);
-    bubble.coef = c.iter().zip(&s).map(|(c, s)| c * s).collect();
+    let mut c: [f64; N] = std::array::from_fn(|i| -g[i] * s[i]);
+    cholesky_solve(N, N, &l, &mut c);
+    bubble.coef = std::array::from_fn(|i| c[i] * s[i]);
     if !bubble.coef.iter().all(|c| c.is_finite()) {
         return None;
     }
@@ -238,18 +234,16 @@ mod tests {
     const T: [[f64; 2]; 3] = [[0.3, 0.1], [1.4, 0.35], [0.5, 1.2]];
 
     /// Fixed coefficients in [−1, 1] (a linear congruential sequence).
-    fn coefficients(seed: u64) -> Vec<f64> {
+    fn coefficients(seed: u64) -> [f64; N] {
         let mut x = seed
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
-        (0..unknowns())
-            .map(|_| {
-                x = x
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-            })
-            .collect()
+        std::array::from_fn(|_| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        })
     }
 
     fn points(f: impl Fn([f64; 3], [f64; 2]) -> ([f64; 4], [f64; 2])) -> Vec<Point> {

@@ -72,6 +72,19 @@ pub(crate) struct Fixture {
     pub fields: Fields,
 }
 
+#[cfg(test)]
+impl Fixture {
+    /// The context of this fixture with the norm preset `norm`.
+    pub fn context(&self, norm: Norm) -> Context<'_> {
+        Context::new(&self.data.mesh, &self.topo, &self.scene, &self.edges, norm)
+    }
+
+    /// The file's displacement (panics if it has none).
+    pub fn displacement(&self) -> Vec<[f64; 2]> {
+        self.fields.displacement.clone().expect("a displacement")
+    }
+}
+
 /// Reads `fixtures/<case>/solution.vtu` with its `scene.toml`; panics on any error.
 #[cfg(test)]
 pub(crate) fn fixture(case: &str) -> Fixture {

@@ -377,38 +377,26 @@ mod tests {
     use crate::reconstruct::projection::nodal_violations;
 
     struct Case {
-        data: crate::mesh::Dataset,
-        topo: Topology,
-        scene: Scene,
-        edges: Vec<BoundaryEdge>,
+        fx: crate::problem::Fixture,
         u: Vec<[f64; 2]>,
         sigma: Vec<[f64; 4]>,
     }
 
     fn load(case: &str) -> Case {
-        let crate::problem::Fixture {
-            data,
-            topo,
-            scene,
-            edges,
-            fields,
-        } = crate::problem::fixture(case);
-        let Stress::Nodal { values, .. } = fields.stress else {
+        let fx = crate::problem::fixture(case);
+        let Stress::Nodal { values, .. } = &fx.fields.stress else {
             panic!("nodal stress expected")
         };
         Case {
-            u: fields.displacement.unwrap(),
-            sigma: values,
-            data,
-            topo,
-            scene,
-            edges,
+            u: fx.displacement(),
+            sigma: values.clone(),
+            fx,
         }
     }
 
     impl Case {
         fn context(&self, norm: Norm) -> Context<'_> {
-            Context::new(&self.data.mesh, &self.topo, &self.scene, &self.edges, norm)
+            self.fx.context(norm)
         }
     }
 
@@ -433,17 +421,17 @@ mod tests {
             let c = load(case);
             let ctx = c.context(norm);
             let inp = ReconstructInput {
-                mesh: &c.data.mesh,
-                topo: &c.topo,
-                scene: &c.scene,
-                edges: &c.edges,
+                mesh: &c.fx.data.mesh,
+                topo: &c.fx.topo,
+                scene: &c.fx.scene,
+                edges: &c.fx.edges,
                 sigma: StressField::Nodal(&c.sigma),
                 norm,
             };
             let r = reconstruct(&ctx, inp.sigma).unwrap();
             assert!(r.info.converged && r.info.kkt_residual < 1e-12, "{case}");
             assert_eq!(nodal_violations(&ctx, &r.displacement), 0);
-            let el = Elastic::new(&c.scene.material);
+            let el = Elastic::new(&c.fx.scene.material);
             let (a, b) = match norm {
                 Norm::Energy => (2.0 * el.mu, el.lambda),
                 Norm::Robust => (2.0 * el.mu, 0.0),
@@ -451,10 +439,10 @@ mod tests {
             };
             let k = Lower {
                 n: 2 * c.u.len(),
-                entries: stiffness(&c.data.mesh, a, b).0,
+                entries: stiffness(&c.fx.data.mesh, a, b).0,
             };
-            let mut f = volume_load(&c.data.mesh, inp.sigma, &el, a, b);
-            let (_, con) = boundary_nodes(&c.data.mesh, &c.topo, &c.scene, &c.edges);
+            let mut f = volume_load(&c.fx.data.mesh, inp.sigma, &el, a, b);
+            let (_, con) = boundary_nodes(&c.fx.data.mesh, &c.fx.topo, &c.fx.scene, &c.fx.edges);
             contact_load(&inp, &con, &mut f);
             let j = |v: &[[f64; 2]]| {
                 let x: Vec<f64> = v.iter().flatten().copied().collect();

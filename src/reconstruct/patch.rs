@@ -192,7 +192,7 @@ pub fn reconstruct(
             .edges
             .iter()
             .filter(|be| matches!(be.condition, Condition::Contact(_)))
-            .flat_map(|be| mesh.nodes(be.cell as usize).to_vec())
+            .flat_map(|be| mesh.nodes(be.cell as usize).iter().copied())
             .fold(0.0f64, |m, n| {
                 m.max(u[n as usize][0].abs()).max(u[n as usize][1].abs())
             });
@@ -268,10 +268,11 @@ pub fn reconstruct(
     // on P1 with the weak symmetry they start with the cell shares of the rotation moments.
     let mut extra: Vec<Extra> = vec![[0.0; 4]; members.len()];
     if weak_symmetry && mesh.degree == 1 {
+        let stress = p1_cell_stresses(ctx, u);
         let shares: Vec<[f64; 3]> = (0..mesh.len())
             .into_par_iter()
             .with_min_len(256)
-            .map(|t| rotation_shares(ctx, u, &condition, gap_tolerance, t))
+            .map(|t| rotation_shares(ctx, u, &stress, &condition, gap_tolerance, t))
             .collect();
         for (t, sh) in shares.iter().enumerate() {
             for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
@@ -1182,6 +1183,24 @@ fn solve_patch(
     }
 }
 
+/// σ_T = Cε(u_h) of every cell at its centroid (constant on P1 cells), once for the rotation
+/// shares of the cell and of its three neighbours.
+fn p1_cell_stresses(ctx: &Context, u: &[[f64; 2]]) -> Vec<[f64; 4]> {
+    let mesh = ctx.mesh;
+    (0..mesh.len())
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|c| {
+            let fam = mesh.family[c];
+            let x = mesh.coords(c);
+            let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[c], 0, [1.0 / 3.0; 2]);
+            let gu = sp.gradient_at(mesh.nodes(c), u);
+            let sym = 0.5 * (gu[0][1] + gu[1][0]);
+            ctx.elastic.stress([gu[0][0], sym, sym, gu[1][1]])
+        })
+        .collect()
+}
+
 /// True when u_h is open (g − u_n > `gap_tolerance`, `OPEN_GAP_RELATIVE` of max |u_h| on Γ_C) at every one of `EDGE_OPEN_SAMPLES`
 /// points of the contact edge `be`, ends included.
 fn contact_edge_is_open(
@@ -1230,24 +1249,18 @@ fn contact_edge_is_open(
 /// patch's boundary fluxes ψ_a σ_T n·ρ_a, so the symmetry rows ∫_T as τ_a = α_{a,T} make the
 /// rotation balance of every patch hold up to its boundary-data mismatch, without the Galerkin
 /// property for ψ_a ρ (not in the P1 space) and without moving rotation moments far.
+/// `stress` holds σ_T = Cε(u_h) per cell ([`p1_cell_stresses`]).
 fn rotation_shares(
     ctx: &Context,
     u: &[[f64; 2]],
+    stress: &[[f64; 4]],
     condition: &[Option<Condition>],
     gap_tolerance: f64,
     t: usize,
 ) -> [f64; 3] {
     let mesh = ctx.mesh;
     let topo = ctx.topo;
-    let el = ctx.elastic;
-    let stress_of = |c: usize| -> [f64; 4] {
-        let fam = mesh.family[c];
-        let x = mesh.coords(c);
-        let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[c], 0, [1.0 / 3.0; 2]);
-        let gu = sp.gradient_at(mesh.nodes(c), u);
-        let sym = 0.5 * (gu[0][1] + gu[1][0]);
-        el.stress([gu[0][0], sym, sym, gu[1][1]])
-    };
+    let stress_of = |c: usize| stress[c];
     let fam = mesh.family[t];
     let x = mesh.coords(t);
     let v = [x[0], x[1], x[2]];
@@ -1404,28 +1417,18 @@ mod tests {
     /// theorem and the flux jumps instead).
     #[test]
     fn rotation_shares_cancel_per_cell_and_carry_the_patch_moment() {
-        let crate::problem::Fixture {
-            data,
-            topo,
-            scene,
-            edges,
-            fields,
-        } = crate::problem::fixture("manufactured_frictionless_p1_n08");
-        let ctx = Context::new(
-            &data.mesh,
-            &topo,
-            &scene,
-            &edges,
-            crate::read::scene::Norm::Energy,
-        );
-        let u = fields.displacement.unwrap();
+        let fx = crate::problem::fixture("manufactured_frictionless_p1_n08");
+        let (topo, scene, edges) = (&fx.topo, &fx.scene, &fx.edges);
+        let ctx = fx.context(crate::read::scene::Norm::Energy);
+        let u = fx.displacement();
         let mesh = ctx.mesh;
         let mut condition: Vec<Option<Condition>> = vec![None; topo.edges.len()];
-        for be in &edges {
+        for be in edges {
             condition[be.edge as usize] = Some(be.condition);
         }
+        let stress = p1_cell_stresses(&ctx, &u);
         let shares: Vec<[f64; 3]> = (0..mesh.len())
-            .map(|t| rotation_shares(&ctx, &u, &condition, 0.0, t))
+            .map(|t| rotation_shares(&ctx, &u, &stress, &condition, 0.0, t))
             .collect();
         let mut largest = 0.0f64;
         for sh in &shares {

@@ -638,15 +638,9 @@ mod tests {
             ("block_skfem_p1", Norm::Energy),
             ("block_skfem_p1_coulomb", Norm::Robust),
         ] {
-            let crate::problem::Fixture {
-                data,
-                topo,
-                scene,
-                edges,
-                fields,
-            } = crate::problem::fixture(case);
-            let ctx = Context::new(&data.mesh, &topo, &scene, &edges, norm);
-            let u = fields.displacement.unwrap();
+            let fx = crate::problem::fixture(case);
+            let ctx = fx.context(norm);
+            let u = fx.displacement();
             for order in [RtOrder::Rt1, RtOrder::Rt2] {
                 let full = reconstruct_with(&ctx, &u, order, false).unwrap();
                 let cond = reconstruct_with(&ctx, &u, order, true).unwrap();
