@@ -146,6 +146,16 @@ impl Expr {
         ))
     }
 
+    /// The value and the gradient (∂/∂x, ∂/∂y) at (x, y, 0), by forward-mode differentiation
+    /// of the compiled tree: exact to rounding wherever the expression is differentiable.
+    /// Piecewise-constant parts (comparisons, `floor`, `ceil`, `sign`) have gradient 0; `abs`,
+    /// `min` and `max` take the one-sided derivative of the branch chosen, `a^b` at a = 0
+    /// the limit b·a^(b−1)·∇a of a constant exponent. The Dirichlet lifting of the error
+    /// bound needs the tangential derivative of the data (docs/design.md §6.2).
+    pub fn eval_gradient(&self, x: f64, y: f64) -> (f64, [f64; 2]) {
+        self.node.dual(&[x, y, 0.0])
+    }
+
     /// Number of nodes of the compiled tree (1 for a constant): the cost of one evaluation.
     pub fn node_count(&self) -> usize {
         self.node.count()
@@ -397,6 +407,109 @@ impl Node {
                     f.apply(&values)
                 }
             },
+        }
+    }
+
+    /// (value, ∂/∂x, ∂/∂y): forward-mode differentiation (see [`Expr::eval_gradient`]).
+    fn dual(&self, p: &[f64; 3]) -> (f64, [f64; 2]) {
+        const Z: [f64; 2] = [0.0; 2];
+        let scale = |k: f64, g: [f64; 2]| [k * g[0], k * g[1]];
+        match self {
+            Node::Num(v) => (*v, Z),
+            Node::Var(i) => (
+                p[*i],
+                match i {
+                    0 => [1.0, 0.0],
+                    1 => [0.0, 1.0],
+                    _ => Z,
+                },
+            ),
+            Node::Unary(UnOp::Neg, a) => {
+                let (v, g) = a.dual(p);
+                (-v, scale(-1.0, g))
+            }
+            Node::Unary(op, a) => (op.apply(a.eval(p)), Z),
+            Node::Binary(op, a, b) => {
+                let ((u, gu), (v, gv)) = (a.dual(p), b.dual(p));
+                let lin = |ka: f64, kb: f64| [ka * gu[0] + kb * gv[0], ka * gu[1] + kb * gv[1]];
+                match op {
+                    BinOp::Add => (u + v, lin(1.0, 1.0)),
+                    BinOp::Sub => (u - v, lin(1.0, -1.0)),
+                    BinOp::Mul => (u * v, lin(v, u)),
+                    BinOp::Div => (u / v, lin(1.0 / v, -u / (v * v))),
+                    BinOp::Pow => {
+                        let w = u.powf(v);
+                        // d(u^v) = v u^(v−1) du + u^v ln u dv; the second only when v varies.
+                        let ku = if v == 0.0 { 0.0 } else { v * u.powf(v - 1.0) };
+                        let kv = if gv == Z || w == 0.0 { 0.0 } else { w * u.ln() };
+                        (w, lin(ku, kv))
+                    }
+                    _ => (op.apply(u, v), Z),
+                }
+            }
+            Node::Call1(f, a) => {
+                let (u, g) = a.dual(p);
+                let k = match f {
+                    Func::Abs => {
+                        if u < 0.0 {
+                            -1.0
+                        } else {
+                            1.0
+                        }
+                    }
+                    Func::Acos => -1.0 / (1.0 - u * u).sqrt(),
+                    Func::Asin => 1.0 / (1.0 - u * u).sqrt(),
+                    Func::Atan => 1.0 / (1.0 + u * u),
+                    Func::Ceil | Func::Floor | Func::Sign => 0.0,
+                    Func::Cos => -u.sin(),
+                    Func::Cosh => u.sinh(),
+                    Func::Exp => u.exp(),
+                    Func::Ln => 1.0 / u,
+                    Func::Log10 => 1.0 / (u * std::f64::consts::LN_10),
+                    Func::Sin => u.cos(),
+                    Func::Sinh => u.cosh(),
+                    Func::Sqrt => 0.5 / u.sqrt(),
+                    Func::Tan => 1.0 + u.tan() * u.tan(),
+                    Func::Tanh => 1.0 - u.tanh() * u.tanh(),
+                    Func::Atan2 | Func::Hypot | Func::Max | Func::Min => unreachable!("not unary"),
+                };
+                (f.apply1(u), if k == 0.0 { Z } else { scale(k, g) })
+            }
+            Node::Call(f, args) => {
+                let d: Vec<(f64, [f64; 2])> = args.iter().map(|a| a.dual(p)).collect();
+                match f {
+                    Func::Min | Func::Max => {
+                        let better = |x: f64, y: f64| {
+                            if matches!(f, Func::Min) { x < y } else { x > y }
+                        };
+                        let mut best = d[0];
+                        for &c in &d[1..] {
+                            if better(c.0, best.0) || c.0.is_nan() {
+                                best = c;
+                            }
+                        }
+                        best
+                    }
+                    Func::Atan2 => {
+                        let ((y, gy), (x, gx)) = (d[0], d[1]);
+                        let r2 = x * x + y * y;
+                        (
+                            y.atan2(x),
+                            [(x * gy[0] - y * gx[0]) / r2, (x * gy[1] - y * gx[1]) / r2],
+                        )
+                    }
+                    Func::Hypot => {
+                        let ((a, ga), (b, gb)) = (d[0], d[1]);
+                        let h = a.hypot(b);
+                        (
+                            h,
+                            [(a * ga[0] + b * gb[0]) / h, (a * ga[1] + b * gb[1]) / h],
+                        )
+                    }
+                    // Only min, max, atan2 and hypot are stored as `Call` (`Tree::call`).
+                    _ => (self.eval(p), Z),
+                }
+            }
         }
     }
 
@@ -1220,6 +1333,49 @@ mod tests {
                 "q".repeat(200)
             )
         );
+    }
+
+    #[test]
+    fn gradients_match_hand_derivatives_and_differences() {
+        // Hand derivatives: ∇(x²y) = (2xy, x²); ∇ max(x − 0.3, 0)^4 = (4(x − 0.3)³, 0) right of
+        // the kink and 0 left of it; ∇ sin(2x + y) = cos(2x + y)(2, 1).
+        let e = Expr::parse("x^2*y").unwrap();
+        let (v, g) = e.eval_gradient(1.5, -2.0);
+        assert_eq!((v, g), (-4.5, [-6.0, 2.25]));
+        let e = Expr::parse("max((x - 0.3), 0)^4").unwrap();
+        let (_, g) = e.eval_gradient(0.5, 7.0);
+        assert!(
+            (g[0] - 4.0 * 0.2f64.powi(3)).abs() < 1e-15 && g[1] == 0.0,
+            "{g:?}"
+        );
+        assert_eq!(e.eval_gradient(0.1, 7.0).1, [0.0, 0.0]);
+        let e = Expr::parse("sin(2*x + y)").unwrap();
+        let (_, g) = e.eval_gradient(0.3, 0.4);
+        let c = (1.0f64).cos();
+        assert!((g[0] - 2.0 * c).abs() < 1e-15 && (g[1] - c).abs() < 1e-15);
+        // Every function against a central difference at a smooth point.
+        for src in [
+            "abs(x - 2*y) + acos(x/3) * asin(y/3) + atan(x*y)",
+            "atan2(y, x) + hypot(x, y) + cosh(x) - sinh(y) + exp(-x*y)",
+            "ln(x) + log10(x*y) + sqrt(x + y) + tan(y) * tanh(x)",
+            "x^y + 2^x + y^3 / (1 + x) - min(x, y, 0.1) * max(x, y)",
+            "-(x < y) + floor(x) + ceil(y) + sign(x) + cos(x^2)",
+        ] {
+            let e = Expr::parse(src).unwrap();
+            let (x, y, hh) = (0.7, 0.45, 1e-6);
+            let (v, g) = e.eval_gradient(x, y);
+            assert_eq!(v, e.eval(x, y, 0.0), "{src}");
+            let dx = (e.eval(x + hh, y, 0.0) - e.eval(x - hh, y, 0.0)) / (2.0 * hh);
+            let dy = (e.eval(x, y + hh, 0.0) - e.eval(x, y - hh, 0.0)) / (2.0 * hh);
+            assert!(
+                (g[0] - dx).abs() < 1e-7 * (1.0 + dx.abs()),
+                "{src}: {g:?} {dx}"
+            );
+            assert!(
+                (g[1] - dy).abs() < 1e-7 * (1.0 + dy.abs()),
+                "{src}: {g:?} {dy}"
+            );
+        }
     }
 
     #[test]

@@ -246,6 +246,12 @@ pub const FLOW_PASSES: usize = 3;
 /// the ones the patches balanced (a kinked f integrated by two rules differs by ~1e-3).
 pub const LOAD_DEGREE: usize = 12;
 
+/// Panels of the composite Gauss–Legendre rule (degree `LOAD_DEGREE` each) on a Dirichlet
+/// edge for the energy of the data lifting (`estimate::data`): exact for polynomial data of
+/// P2 fields; for data with a kink inside the edge (|||z||| depends on d′, which jumps there)
+/// 4 panels put the kink's error at the size of the others. Boundary edges are few.
+pub const DATA_PANELS: usize = 4;
+
 /// Points per contact edge at which the P2 trace is checked between nodes and lifted
 /// (`estimate::lift`): the admissibility check samples edges as finely.
 pub const LIFT_SAMPLES: usize = 64;

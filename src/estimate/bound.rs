@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Admissibility, Terms, failed_checks};
-use super::{bubble, lift, symmetric};
+use super::{bubble, data, lift, symmetric};
 use crate::field::StressField;
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
@@ -50,7 +50,15 @@ pub struct BoundTerms {
     pub asymmetry: f64,
     /// ‖v − u_h‖_E when the displacement was projected onto K_u, else 0.
     pub projection: f64,
-    /// R = (Σ_T (η_PS,T + (η_osc,T + η_as,T)/√c_min)²)^½ ≤ η_PS + η_osc + η_as: the three
+    /// η_tr: Neumann data outside the normal traces of τ, (Σ_T η_tr,T²/c_min)^½
+    /// (`estimate::data`, design §6.2).
+    #[serde(default)]
+    pub traction: f64,
+    /// |||z|||: the lifting of the Dirichlet data that v misses between its nodes
+    /// (`estimate::data`), added like the projection distance.
+    #[serde(default)]
+    pub dirichlet_lift: f64,
+    /// R = (Σ_T (η_PS,T + |||z|||_T + (η_osc,T + η_as,T + η_tr,T)/√c_min)²)^½: the
     /// terms bound the cell's share of |||w|||² against |||w|||_T, so Cauchy–Schwarz over the
     /// cells needs only their sum per cell (docs/design.md §6.2).
     #[serde(default)]
@@ -100,10 +108,12 @@ impl Bound {
     }
 }
 
-/// (½)^½ (½(R + √(R² + 4c)) + ‖v − u_h‖_E), R = `combined` (module doc).
+/// (½)^½ (½(R + √(R² + 4c)) + ‖v − u_h‖_E + |||z|||), R = `combined` (module doc).
 fn energy_error(t: &BoundTerms) -> f64 {
     let r = t.combined;
-    let w = 0.5 * (r + (r * r + 4.0 * t.complementarity.max(0.0)).sqrt()) + t.projection;
+    let w = 0.5 * (r + (r * r + 4.0 * t.complementarity.max(0.0)).sqrt())
+        + t.projection
+        + t.dirichlet_lift;
     0.5f64.sqrt() * w
 }
 
@@ -169,14 +179,23 @@ pub fn bound(
     if let Some(l) = &lifted {
         adm_used.penetration.max = l.max_after;
     }
-    let adm = &adm_used;
     let v: &[[f64; 2]] = lifted.as_ref().map_or(v, |l| &l.v[..]);
+    let sigma_scale = sigma.scale(mesh);
+    // Data outside the discrete spaces become terms (data.rs); where every such edge has its
+    // term, the mismatch is no longer a failed hypothesis.
+    let dt = data::data_terms(ctx, v, sigma, sigma_scale);
+    if dt.traction_covered {
+        adm_used.neumann = super::Violation::default();
+    }
+    if dt.dirichlet_covered {
+        adm_used.dirichlet = super::Violation::default();
+    }
+    let adm = &adm_used;
     let c_min = (2.0 * el.mu).min(2.0 * (el.mu + el.lambda));
     let f_expr = ctx.scene.body_force.as_ref();
     let f_poly = f_expr.is_none_or(|f| f[0].is_constant() && f[1].is_constant());
-    // Round-off floor of the moment checks: the stress scale times the cell's area (a zero
-    // divergence or asymmetry has nothing else to be measured against).
-    let sigma_scale = sigma.scale(mesh);
+    // (sigma_scale: the round-off floor of the moment checks, the stress scale times the
+    // cell's area; a zero divergence or asymmetry has nothing else to be measured against.)
     let cells: Vec<Cell> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(256)
@@ -346,13 +365,15 @@ pub fn bound(
                     c.symmetrised = true;
                 }
             }
-            c.local = (c.ps2.sqrt() + (c.osc + c.asym) / c_min.sqrt()).powi(2);
+            c.local =
+                (c.ps2.sqrt() + dt.lift[t] + (c.osc + c.asym + dt.trace[t]) / c_min.sqrt()).powi(2);
             c
         })
         .collect();
     let ps = cells.iter().map(|c| c.ps2).sum::<f64>().sqrt();
     let osc = (cells.iter().map(|c| c.osc * c.osc).sum::<f64>() / c_min).sqrt();
     let asym = (cells.iter().map(|c| c.asym * c.asym).sum::<f64>() / c_min).sqrt();
+    let traction = (dt.trace.iter().map(|e| e * e).sum::<f64>() / c_min).sqrt();
     let energy: f64 = cells.iter().map(|c| c.energy).sum();
     let korn_max = cells.iter().fold(0.0f64, |m, c| m.max(c.korn));
     let terms = BoundTerms {
@@ -363,6 +384,8 @@ pub fn bound(
         oscillation: osc,
         asymmetry: asym,
         projection: lifted.as_ref().map_or(0.0, |l| l.distance),
+        traction,
+        dirichlet_lift: dt.lift.iter().map(|z| z * z).sum::<f64>().sqrt(),
         combined: cells.iter().map(|c| c.local).sum::<f64>().sqrt(),
         korn_max,
         symmetrised_cells: cells.iter().filter(|c| c.symmetrised).count(),
@@ -409,11 +432,12 @@ pub fn bound(
              asymmetry (P1 displacements), so the asymmetry term is an estimate"
         ));
     }
-    if (osc + asym) > negligible {
+    if (osc + asym + traction) > negligible {
         failed.push(format!(
             "the local Korn constants K_T = 2/sin(θ_min/4) (up to {korn_max:.2}) rest on the \
              Horgan–Payne bound of the inf-sup constant, not proven for every triangle \
-             (Costabel–Dauge 2015): asymmetry term {asym:.3e}, oscillation term {osc:.3e}"
+             (Costabel–Dauge 2015): asymmetry term {asym:.3e}, oscillation term {osc:.3e}, \
+             traction term {traction:.3e}"
         ));
     }
     let guaranteed = computable && failed.is_empty() && energy_error.is_finite();

@@ -194,6 +194,7 @@ pub struct Estimate {
 pub mod bound;
 pub mod boundary;
 pub mod bubble;
+pub mod data;
 pub mod interior;
 pub mod lift;
 pub mod reaction;
