@@ -216,6 +216,48 @@ fn dirichlet_data_missed_at_the_nodes_stay_a_failed_hypothesis() {
     );
 }
 
+/// `auto` (no option) rebuilds a missing or inadmissible stress by patch equilibration on
+/// triangles, so the default run gives the bound: above the exact solution's error on a
+/// manufactured P2 mesh, guaranteed on the Hertz P2 file. Quadrilaterals keep the global
+/// minimiser, without a bound and with the reason.
+#[test]
+fn the_default_mode_gives_the_bound_on_triangles() {
+    let dir = root().join("fixtures/manufactured_frictionless_p2_n16");
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
+    let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
+    let (code, r, err) = estimate(&dir.join("solution.vtu"), &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.expect("a report");
+    assert!(
+        r.stress.space.contains("equilibrated on vertex patches"),
+        "{}",
+        r.stress.space
+    );
+    let e = r.bound.energy_error.expect("a bound");
+    assert!(e >= truth, "bound {e} below the true error {truth}");
+    let (code, r, err) = estimate(&root().join("fixtures/hertz_skfem_p2/solution.vtu"), &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    let b = r.expect("a report").bound;
+    assert!(b.guaranteed, "{:?}", b.failed_hypotheses);
+    let (code, r, err) = estimate(
+        &root().join("fixtures/quad_manufactured_q2_n08/solution.vtu"),
+        &[],
+    );
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.expect("a report");
+    assert!(
+        r.stress.space.contains("global minimiser"),
+        "{}",
+        r.stress.space
+    );
+    assert_eq!(r.bound.energy_error, None);
+    assert_eq!(
+        r.bound.failed_hypotheses,
+        ["quadrilateral cells: the bound is not implemented"]
+    );
+}
+
 /// ν = 0.5: no bound in the energy norm, with the reason.
 #[test]
 fn incompressible_material_gives_no_bound() {

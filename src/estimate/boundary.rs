@@ -363,6 +363,20 @@ fn merge_short(mut list: Vec<(ContactInterval, f64)>) -> Vec<(ContactInterval, f
 /// Evaluates the boundary terms, the admissibility checks and the contact zone of `u` and
 /// `sigma` in the problem `ctx`.
 pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
+    boundary_with(ctx, u, sigma, None)
+}
+
+/// [`boundary`], with the contact zone also required to be closed: with
+/// `zone_gap = Some(r)` a piece where u_h is open by more than r × max |u_h| on Γ_C is
+/// separated whatever the traction, and pieces are cut where the gap crosses that level
+/// (docs/design.md §5.8: for a patch stress of a displacement that is not a Galerkin
+/// solution, which carries load defects on the nearly closed contact edges beyond the zone).
+pub fn boundary_with(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    sigma: StressField,
+    zone_gap: Option<f64>,
+) -> Boundary {
     let inp = &Input {
         mesh: ctx.mesh,
         u,
@@ -401,6 +415,7 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
     let tol = STATE_RELATIVE * sn_scale;
     let tol_contact = CONTACT_TRACTION_RELATIVE * sn_scale;
     let tol_slip = STICK_SLIP_RELATIVE * u_scale;
+    let tol_open = zone_gap.map_or(f64::INFINITY, |r| r * u_scale);
 
     // Pieces of each contact boundary, per edge, for the intervals.
     let mut pieces: Vec<(usize, usize, Vec<Piece>)> = Vec::new(); // (boundary, edge index, pieces)
@@ -420,6 +435,15 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                 // The contact zone ends where σ_n crosses the threshold.
                 cuts.extend(zeros(|s| q(s).sn + tol_contact, f.straight));
                 cuts.extend(zeros(|s| q(s).ut, f.straight));
+                if tol_open.is_finite() {
+                    cuts.extend(zeros(
+                        |s| {
+                            let p = q(s);
+                            p.g - p.un - tol_open
+                        },
+                        quadratic,
+                    ));
+                }
                 cuts.extend(zeros(
                     |s| {
                         let p = q(s);
@@ -470,7 +494,7 @@ pub fn boundary(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Boundary {
                     // between active nodes on curved boundaries, penalty solutions close them
                     // by penetrating. Without friction that is "contact"; with friction stick
                     // needs the stress inside the cone and no slip.
-                    let state = if mid.sn >= -tol_contact {
+                    let state = if mid.sn >= -tol_contact || mid.g - mid.un > tol_open {
                         ContactState::Separated
                     } else if fr <= 0.0 {
                         ContactState::Contact

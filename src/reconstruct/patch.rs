@@ -70,6 +70,11 @@ pub struct PatchInfo {
     /// Whether the patch loads were rebalanced by flows between patches (flow.rs): the file's
     /// displacement was not the Galerkin solution of this discrete problem.
     pub balanced: bool,
+    /// The largest force defect ∫ψ_a(f·e_r) + … of the patches without Dirichlet or contact
+    /// edges, relative to its terms, before any flow: round-off for a Galerkin solution
+    /// (tested with ψ_a e_r, in the space for every degree), the size of the residual otherwise
+    /// (sfepy's vertex-only P2 file: see `tolerance::GALERKIN_DEFECT_RELATIVE`).
+    pub load_defect: f64,
 }
 
 /// The result.
@@ -288,6 +293,11 @@ pub fn reconstruct(
         .with_min_len(64)
         .map(|i| solve_one(i, &extra, true))
         .collect();
+    let load_defect = outs
+        .iter()
+        .filter(|o| !o.solved && o.cannot_take != [[0.0; 3]; 3])
+        .map(|o| relative_balance([o.balance[0], o.balance[1], 0.0], o.balance_scale))
+        .fold(0.0f64, f64::max);
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
     // residual of the new solution is balanced again, up to FLOW_PASSES times.
@@ -418,6 +428,7 @@ pub fn reconstruct(
         patches: outs.len(),
         weak_symmetry,
         balanced,
+        load_defect,
         ..Default::default()
     };
     for mut o in outs {

@@ -168,7 +168,7 @@ pub struct Bound {
     pub statement: String,
     pub terms: Option<crate::estimate::BoundTerms>,
     pub failed_hypotheses: Vec<String>,
-    /// Per cell (file order): η_PS,T² + (osc_T + as_T)²/c_min.
+    /// Per cell (file order): (η_PS,T + |||z|||_T + (osc_T + as_T + tr_T)/√c_min)².
     pub cells: Vec<f64>,
 }
 
