@@ -258,6 +258,46 @@ fn the_default_mode_gives_the_bound_on_triangles() {
     );
 }
 
+/// A patch reconstruction whose constraints cannot all be met is not used by `auto`: on the
+/// CalculiX CPE6 Hertz file with `normal = "body"` (float32 coordinates, so the body normal
+/// turns inside the edges) it left σ_t ≈ 2e5 on the frictionless contact and η = 2.1e5. The
+/// default run falls back to the global minimiser: the same η as `--stress global`, with the
+/// note saying so and no bound.
+#[test]
+fn auto_falls_back_to_the_global_minimiser_when_patches_cannot_be_met() {
+    let src = root().join("fixtures/calculix_hertz_cpe6_penalty");
+    let dir = tempfile::tempdir().unwrap();
+    for f in std::fs::read_dir(&src).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, dir.path().join(f.file_name().unwrap())).unwrap();
+    }
+    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
+    let body = scene.replace("normal = \"obstacle\"", "normal = \"body\"");
+    assert_ne!(body, scene);
+    let scene_path = dir.path().join("scene.toml");
+    std::fs::write(&scene_path, body).unwrap();
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(src.join("expected.json")).unwrap()).unwrap();
+    let file = dir.path().join(expected["entry"].as_str().unwrap());
+    let scene_arg = scene_path.to_str().unwrap();
+    let (code, auto, err) = estimate(&file, &["--scene", scene_arg]);
+    assert!(code == 0 || code == 1, "{err}");
+    let auto = auto.expect("a report");
+    let (code, global, err) = estimate(&file, &["--scene", scene_arg, "--stress", "global"]);
+    assert!(code == 0 || code == 1, "{err}");
+    let global = global.expect("a report");
+    assert!(
+        auto.notes
+            .iter()
+            .any(|n| n.starts_with("the patch reconstruction could not meet the constraints")),
+        "{:?}",
+        auto.notes
+    );
+    let (a, g) = (auto.eta.unwrap(), global.eta.unwrap());
+    assert!((a - g).abs() <= 1e-12 * g, "auto η {a}, global η {g}");
+    assert!(a < 0.1 && auto.bound.energy_error.is_none(), "{a}");
+}
+
 /// ν = 0.5: no bound in the energy norm, with the reason.
 #[test]
 fn incompressible_material_gives_no_bound() {

@@ -558,21 +558,52 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         reconstruct::patch::order_for_degree,
     );
     let mut patch_info = None;
-    let reconstruction = match &reconstruct_reason {
-        None => None,
+    // Under `auto` a patch reconstruction whose constraints could not all be met (its stress
+    // is then neither equilibrated nor admissible: CalculiX's float32 CPE6 Hertz file with
+    // `normal = "body"` gave η = 2.1e5 against 0.057 with the global minimiser) gives way to
+    // the global minimiser, with a note; `--stress patch` keeps it, with its warning.
+    let mut patch_fallback = None;
+    let patch = match &reconstruct_reason {
         Some(_) if use_patch => {
             progress.stage("reconstructing the stress on vertex patches");
-            let r = reconstruct::patch::reconstruct(&ctx, u, patch_order)
-                .map_err(|problem| Error::input(&opts.file, "patch reconstruction", problem))?;
+            let r = reconstruct::patch::reconstruct(&ctx, u, patch_order);
             progress.done();
             lap("reconstruct stress (patches)", &mut stages);
+            match r {
+                Ok(r) if opts.stress == Source::Auto && r.info.incompatible > 0 => {
+                    patch_fallback = Some(format!(
+                        "the patch reconstruction could not meet the constraints on {} patches \
+                         (largest relative defect {:.1e}): the global minimiser was used \
+                         instead, which gives no bound",
+                        r.info.incompatible, r.info.max_defect
+                    ));
+                    None
+                }
+                Ok(r) => Some(r),
+                Err(problem) if opts.stress == Source::Auto => {
+                    patch_fallback = Some(format!(
+                        "the patch reconstruction failed ({problem}): the global minimiser was \
+                         used instead, which gives no bound"
+                    ));
+                    None
+                }
+                Err(problem) => {
+                    return Err(Error::input(&opts.file, "patch reconstruction", problem));
+                }
+            }
+        }
+        _ => None,
+    };
+    let reconstruction = match (&reconstruct_reason, patch) {
+        (None, _) => None,
+        (Some(_), Some(r)) => {
             patch_info = Some(r.info);
             Some(reconstruct::stress::Reconstruction {
                 stress: r.stress,
                 info: crate::solve::SolveInfo::default(),
             })
         }
-        Some(_) => {
+        (Some(_), None) => {
             progress.stage("reconstructing the stress");
             let r = reconstruct::stress::reconstruct(&ctx, u, order).map_err(|problem| {
                 Error::input(
@@ -751,6 +782,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         ));
         notes.extend(condition_warning(&r.info, "displacement reconstruction"));
     }
+    notes.extend(patch_fallback);
     if let Some(p) = &patch_info {
         notes.push(format!(
             "patch reconstruction: {} vertex patches (up to {} unknowns), {} active contact \
