@@ -45,6 +45,7 @@ fn estimate_timeout_names_the_stage_and_writes_nothing() {
     let stages = [
         "starting",
         "reading the solution",
+        "reading the scene",
         "projecting the displacement onto K_u",
         "reconstructing the stress",
         "evaluating the functional",

@@ -115,9 +115,10 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             let _ = writeln!(
                 o,
                 "\nResult: η = F^½ = {} (relative error estimate {:.2} %) for {u_what}, measured \
-                 against {s_what}.",
+                 against {s_what}.{}",
                 n(eta),
-                100.0 * rel
+                100.0 * rel,
+                headline_bound(&est.bound)
             );
         }
         _ => {
@@ -549,6 +550,23 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         table(&mut o, 2, &[false, true], &rows);
     }
     o
+}
+
+/// The bound's sentence for the headline: what bounds what, or nothing without a bound.
+fn headline_bound(b: &crate::estimate::Bound) -> String {
+    match (b.energy_error, b.relative) {
+        (Some(e), Some(r)) => format!(
+            " Error bound: (½|||u − u_h|||²)^½ ≤ {} ({:.2} % of the energy^½), {}.",
+            num(e, 6),
+            100.0 * r,
+            if b.guaranteed {
+                "guaranteed"
+            } else {
+                "NOT guaranteed: see the failed hypotheses under Bound"
+            }
+        ),
+        _ => String::new(),
+    }
 }
 
 #[cfg(test)]
