@@ -79,6 +79,16 @@ pub(super) fn boundary_nodes(
 /// (x and y of each mesh node interleaved), and the lumped mass per node. Quadrature is exact
 /// on straight cells (degree 2(k − 1)) and of degree [`CURVED_DEGREE`] on curved ones.
 pub(super) fn stiffness(mesh: &Mesh, a: f64, b: f64) -> (Vec<(usize, usize, f64)>, Vec<f64>) {
+    stiffness_of(mesh, 0..mesh.len(), a, b)
+}
+
+/// [`stiffness`] assembled over the cells `cells` only (the lumped masses too).
+pub(super) fn stiffness_of(
+    mesh: &Mesh,
+    cells: impl Iterator<Item = usize>,
+    a: f64,
+    b: f64,
+) -> (Vec<(usize, usize, f64)>, Vec<f64>) {
     let np = mesh.points.len();
     let mut entries: Vec<(usize, usize, f64)> = Vec::new();
     let mut lumped = vec![0.0; np];
@@ -87,7 +97,7 @@ pub(super) fn stiffness(mesh: &Mesh, a: f64, b: f64) -> (Vec<(usize, usize, f64)
         let deg = if f.is_quad() { 2 * p } else { 2 * (p - 1) };
         table(f, rule_degree(sh, deg), false)
     });
-    for t in 0..mesh.len() {
+    for t in cells {
         let nodes = mesh.nodes(t);
         let nn = nodes.len();
         let x = mesh.coords(t);
