@@ -66,7 +66,7 @@ pub const ZONE_GAP_RELATIVE: f64 = 1e-3;
 /// mismatch converges only slowly with the radius of the region it may use: on a 1M-cell P2
 /// square with 41 penetrating nodes at one end of the contact side, the distance was 2.57 / 1.99
 /// / 1.68 / 1.48 × the global projection's with reach 1 / 2 / 4 / 8, at 4.3 – 5.5 s and 2.1 GiB
-/// for the whole stage against 67 s and 12.9 GiB globally. Any region gives an admissible v
+/// for the whole stage against 67 s and 12.3 GiB globally. Any region gives an admissible v
 /// with its exact distance (added to the bound): the reach trades bound for time.
 pub const PROJECTION_REACH: f64 = 8.0;
 
