@@ -265,6 +265,36 @@ fn add_reconstructed(
     }
 }
 
+/// Why a patch stress with unmet patches cannot stand in for the file's under `auto`: the
+/// tension and cone checks it fails on Γ_C, or `None` when every patch was met or the sum
+/// stays admissible (docs/design.md §5.2). Unmet patches make the sum inadmissible only
+/// sometimes: a relative defect of 1.4e-9 with 𝔉 = 1e6 is harmless, CalculiX's float32 CPE6
+/// Hertz file with `normal = "body"` had 4.8e-8 and σ_t ≈ 2e5 (η = 2.1e5 against 0.057 with
+/// the global minimiser). The traction data are not checked: Π_k t − t is missed anyway when
+/// t is not a polynomial (a data term of the bound, not a defect).
+fn unusable_patch_stress(
+    ctx: &crate::problem::Context,
+    u: &[[f64; 2]],
+    r: &reconstruct::patch::Reconstruction,
+) -> Option<String> {
+    if r.info.incompatible == 0 {
+        return None;
+    }
+    let frictional = ctx
+        .scene
+        .boundaries
+        .iter()
+        .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
+    let field = StressField::Rt(&r.stress);
+    let check = estimate::boundary::boundary(ctx, u, field);
+    let failures: Vec<String> =
+        estimate::failed_checks(&check.admissibility, u, field.scale(ctx.mesh), frictional)
+            .into_iter()
+            .filter(|f| f.starts_with("σ_h") && !f.contains("traction data"))
+            .collect();
+    (!failures.is_empty()).then(|| failures.join("; "))
+}
+
 /// The warning for the report when `info.condition_estimate` exceeds [`crate::solve::condition::WARN_ABOVE`].
 fn condition_warning(info: &crate::solve::SolveInfo, what: &str) -> Option<String> {
     let kappa = info.condition_estimate;
@@ -558,67 +588,40 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         reconstruct::patch::order_for_degree,
     );
     let mut patch_info = None;
-    // Under `auto` a patch reconstruction whose constraints could not all be met (its stress
-    // is then neither equilibrated nor admissible: CalculiX's float32 CPE6 Hertz file with
-    // `normal = "body"` gave η = 2.1e5 against 0.057 with the global minimiser) gives way to
-    // the global minimiser, with a note; `--stress patch` keeps it, with its warning.
-    let mut patch_fallback = None;
-    let patch = match &reconstruct_reason {
+    let (patch, patch_fallback) = match &reconstruct_reason {
         Some(_) if use_patch => {
             progress.stage("reconstructing the stress on vertex patches");
             let r = reconstruct::patch::reconstruct(&ctx, u, patch_order);
             progress.done();
             lap("reconstruct stress (patches)", &mut stages);
-            // Patches left unmet make the sum inadmissible only sometimes (a relative defect of
-            // 1.4e-9 with 𝔉 = 1e6 is harmless; CalculiX with `normal = "body"`: 4.8e-8 and
-            // σ_t ≈ 2e5): the admissibility checks of the stress decide.
-            let unusable = |r: &reconstruct::patch::Reconstruction| {
-                if r.info.incompatible == 0 {
-                    return None;
-                }
-                let field = StressField::Rt(&r.stress);
-                let check = estimate::boundary::boundary(&ctx, u, field);
-                let failures: Vec<String> = estimate::failed_checks(
-                    &check.admissibility,
-                    u,
-                    field.scale(&data.mesh),
-                    frictional,
-                )
-                .into_iter()
-                // Tension and the cone; the traction data are missed by Π_k t − t anyway when
-                // t is not a polynomial (a data term of the bound, not a defect).
-                .filter(|f| f.starts_with("σ_h") && !f.contains("traction data"))
-                .collect();
-                (!failures.is_empty()).then(|| failures.join("; "))
-            };
             match r {
-                Ok(r) if opts.stress == Source::Auto => match unusable(&r) {
+                Ok(r) if opts.stress == Source::Auto => match unusable_patch_stress(&ctx, u, &r) {
                     Some(why) => {
-                        patch_fallback = Some(format!(
+                        let note = format!(
                             "the patch reconstruction could not meet the constraints on {} \
                              patches (largest relative defect {:.1e}) and its stress is not \
                              admissible ({why}): the global minimiser was used instead, which \
                              gives no bound",
                             r.info.incompatible, r.info.max_defect
-                        ));
-                        None
+                        );
+                        (None, Some(note))
                     }
-                    None => Some(r),
+                    None => (Some(r), None),
                 },
-                Ok(r) => Some(r),
-                Err(problem) if opts.stress == Source::Auto => {
-                    patch_fallback = Some(format!(
+                Ok(r) => (Some(r), None),
+                Err(problem) if opts.stress == Source::Auto => (
+                    None,
+                    Some(format!(
                         "the patch reconstruction failed ({problem}): the global minimiser was \
                          used instead, which gives no bound"
-                    ));
-                    None
-                }
+                    )),
+                ),
                 Err(problem) => {
                     return Err(Error::input(&opts.file, "patch reconstruction", problem));
                 }
             }
         }
-        _ => None,
+        _ => (None, None),
     };
     let reconstruction = match (&reconstruct_reason, patch) {
         (None, _) => None,
