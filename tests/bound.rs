@@ -160,10 +160,10 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
             let rate = log2_ratio(&bounds, 1);
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
-        // Efficiency on the two finest meshes against the exact solution, with the recovered
-        // (nodal-average) strain as the patch target: P1 1.99 / 1.59, P2 1.97 / 1.85 (with the
-        // piecewise Cε(u_h) target 2.18 / 1.86 and 2.04 / 1.87; P2 n = 32 was 2.10 before the
-        // bubble correction of the oscillation, P1 3.71 with RT_1 and the Korn asymmetry term).
+        // Efficiency on the two finest meshes against the exact solution: P1 1.68 / 1.40, P2
+        // 1.79 / 1.60 (P_1 weak symmetry and the recovered-strain target; with constant weak
+        // symmetry 1.99 / 1.59 and 1.97 / 1.84; with the piecewise Cε(u_h) target too 2.18 /
+        // 1.86 and 2.04 / 1.87; P1 3.71 at n = 32 with RT_1 and the Korn asymmetry term).
         for i in [2, 3] {
             let index = bounds[i] / truths[i];
             assert!(index <= 2.0, "P{p} mesh {i}: efficiency index {index}");
@@ -359,11 +359,12 @@ fn patch_degree_is_checked_and_the_reason_names_the_option() {
 /// Hertz against the fine scikit-fem reference of `reference/speed_accuracy` (its committed
 /// `results.json`: `err_u_E_file_nodal` of the M0 file, the committed fixture's mesh and
 /// solver, is the true energy error of the file's u_h, computed without fosls): the patch bound
-/// is guaranteed, above the true error and within twice it, on P1 and P2 (measured 1.17 and
-/// 1.31 with the recovered-strain target, 1.41 and 1.43 with the piecewise Cε(u_h); before the open-arc edges were solved traction-free and the P1 weak symmetry: 3.33
-/// P1 not guaranteed, 2.31 P2).
+/// is guaranteed, above the true error and within 1.5 times it, on P1 and P2 (measured 1.09 and
+/// 1.11 with the P_1 weak symmetry; 1.17 and 1.31 with constant weak symmetry, 1.41 and 1.43
+/// with the piecewise Cε(u_h) target; before the open-arc edges were solved traction-free and
+/// the P1 weak symmetry: 3.33 P1 not guaranteed, 2.31 P2).
 #[test]
-fn hertz_patch_bounds_are_guaranteed_and_within_twice_the_true_error() {
+fn hertz_patch_bounds_are_guaranteed_and_within_one_and_a_half_times_the_true_error() {
     let results: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(root().join("reference/speed_accuracy/results.json")).unwrap(),
     )
@@ -384,7 +385,7 @@ fn hertz_patch_bounds_are_guaranteed_and_within_twice_the_true_error() {
         assert!(b.guaranteed, "P{p}: {:?}", b.failed_hypotheses);
         let e = b.energy_error.expect("a bound");
         assert!(
-            e >= truth && e <= 2.0 * truth,
+            e >= truth && e <= 1.5 * truth,
             "P{p}: bound {e}, true error {truth}, index {}",
             e / truth
         );

@@ -9,7 +9,8 @@
 //! σ_a = argmin ½‖τ − ψ_a Cε*‖²_A + ⟨τ_n, ψ_a (u_n − g)⟩_{Γ_C ∩ ∂ω_a}
 //!   over τ ∈ RT_k(ω_a)² row-wise with
 //!   (div τ, q)_T = (−ψ_a f + Cε(u_h)∇ψ_a, q)_T     for q ∈ P_k(T̂) ∘ F_T⁻¹, every T ⊂ ω_a,
-//!   ∫_T as τ = 0 on every T (weak symmetry, P2 displacements),
+//!   ∫_T as τ q = 0 on every T for q ∈ P_1 with RT_2 (weak symmetry; the constant moment is
+//!   the rotation share α_{a,T} on P1 meshes, design §5.10),
 //!   τn = 0 on ∂ω_a inside Ω, τn|x'| = Π_k(ψ_a t|x'|) on Γ_N and free edges (t = 0),
 //!   τn free on Γ_D, and on Γ_C τ_t = 0, τ_n ≤ 0 (frictionless) or |τ_t| ≤ −𝔉τ_n (Coulomb),
 //! ```
@@ -600,6 +601,10 @@ fn solve_patch(
     balance_only: bool,
 ) -> PatchOut {
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
+    // The P_1 moments of the weak symmetry (design §5.10): with RT_2, not with RT_1 (too few
+    // free values per cell) and not P_2 (RT_2 × P_2 × P_2 is not stable: the manufactured
+    // patches became infeasible).
+    let higher = weak_symmetry && order.k() >= 2;
     let (x0, length) = (setup.origin, setup.length);
     let mut dirichlet = false;
     let mesh = ctx.mesh;
@@ -772,6 +777,7 @@ fn solve_patch(
             c0: [0.0; 2 * MAX_RT_DOFS],
             g: [[0.0; MAX_MOMENTS]; 2],
             srow: [0.0; 2 * MAX_RT_DOFS],
+            shi: [[0.0; 2 * MAX_RT_DOFS]; 2],
             asym: extra.get(ci).map_or(0.0, |e| e[3]),
             kernel: interior_base + ci * 2 * nz,
             rigid: [[[0.0; 3]; 2]; 3],
@@ -810,6 +816,9 @@ fn solve_patch(
             let [a, b] = condense::mean_value(re, jv, i);
             part.srow[i] = b;
             part.srow[nloc + i] = -a;
+        }
+        if higher {
+            part.shi = higher_symmetry_rows(re, order, fam, &x[..fam.nodes()], sh);
         }
         if !affine {
             mloc.iter_mut().for_each(|v| *v = 0.0);
@@ -1108,6 +1117,23 @@ fn solve_patch(
                     .map(|(a, b)| a * b)
                     .sum::<f64>();
             push_row(&g_red[..nr], d);
+            if higher {
+                for srow in &part.shi {
+                    for r in 0..2 {
+                        for y in 0..nred {
+                            g_red[r * nred + y] = (0..nloc)
+                                .map(|c| srow[r * nloc + c] * re.transform[c * nred + y])
+                                .sum();
+                        }
+                    }
+                    let d = -srow[..nl]
+                        .iter()
+                        .zip(&part.c0[..nl])
+                        .map(|(a, b)| a * b)
+                        .sum::<f64>();
+                    push_row(&g_red[..nr], d);
+                }
+            }
         }
         parts.push(part);
     }
@@ -1212,6 +1238,20 @@ fn solve_patch(
             }
             worst = worst.max(sres.abs());
             scale = scale.max(abs);
+            if higher {
+                for srow in &part.shi {
+                    let (mut hres, mut habs) = (0.0, 0.0);
+                    for r in 0..2 {
+                        for i in 0..nloc {
+                            let v = srow[r * nloc + i] * c[r][i];
+                            hres += v;
+                            habs += v.abs();
+                        }
+                    }
+                    worst = worst.max(f64::abs(hres));
+                    scale = scale.max(habs);
+                }
+            }
             balance[2] += sres / length;
             balance_scale[2] += abs / length;
         }
@@ -1447,6 +1487,59 @@ fn relative_balance(balance: [f64; 3], scale: f64) -> f64 {
     if scale > 0.0 { b / scale } else { 0.0 }
 }
 
+/// The rows ∫_T (τ_xy − τ_yx) q̂ dx over the local functions of both rows (row 0: τ_xy, row 1:
+/// −τ_yx), q̂ = ξ − ⅓ and η − ⅓. With φ = Jφ̂/det J and dx = det J dξ the integrand is
+/// (Jφ̂)_s q̂: on a straight cell J is constant and the moments ∫_T̂ q̂ φ̂ of condense.rs give the
+/// rows exactly; on a curved one J is linear in ξ and a rule of degree k + 3 is exact.
+fn higher_symmetry_rows(
+    re: &condense::Reference,
+    order: RtOrder,
+    fam: crate::geometry::Family,
+    x: &[[f64; 2]],
+    sh: Shape,
+) -> [[f64; 2 * MAX_RT_DOFS]; 2] {
+    let nloc = re.nloc;
+    let mut out = [[0.0; 2 * MAX_RT_DOFS]; 2];
+    // ∫_T̂ J φ̂_i q̂ for the two q̂, as [q][i][component].
+    let mut m = [[[0.0; 2]; MAX_RT_DOFS]; 2];
+    if sh == Shape::Affine {
+        let j = sub_point(fam, x, sh, 0, [1.0 / 3.0; 2]).jac.matrix;
+        for (i, [m0, mx, my]) in re.first.iter().enumerate().take(nloc) {
+            for (q, mq) in [mx, my].into_iter().enumerate() {
+                let v = [mq[0] - m0[0] / 3.0, mq[1] - m0[1] / 3.0];
+                m[q][i] = [
+                    j[0][0] * v[0] + j[0][1] * v[1],
+                    j[1][0] * v[0] + j[1][1] * v[1],
+                ];
+            }
+        }
+    } else {
+        let rule = triangle_rule_cached(order.k() + 3);
+        for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
+            let j = sub_point(fam, x, sh, 0, xi).jac.matrix;
+            let (v, _) = rt::reference(order, xi);
+            let q = [xi[0] - 1.0 / 3.0, xi[1] - 1.0 / 3.0];
+            for i in 0..nloc {
+                let jv = [
+                    j[0][0] * v[i][0] + j[0][1] * v[i][1],
+                    j[1][0] * v[i][0] + j[1][1] * v[i][1],
+                ];
+                for qq in 0..2 {
+                    m[qq][i][0] += w * q[qq] * jv[0];
+                    m[qq][i][1] += w * q[qq] * jv[1];
+                }
+            }
+        }
+    }
+    for q in 0..2 {
+        for i in 0..nloc {
+            out[q][i] = m[q][i][1];
+            out[q][nloc + i] = -m[q][i][0];
+        }
+    }
+    out
+}
+
 /// One cell of a patch, kept from assembly to the recovery of its coefficients.
 struct CellPart {
     t: u32,
@@ -1458,6 +1551,9 @@ struct CellPart {
     g: [[f64; MAX_MOMENTS]; 2],
     /// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions.
     srow: [f64; 2 * MAX_RT_DOFS],
+    /// The higher weak-symmetry rows ∫_T (τ_xy − τ_yx) q̂ for q̂ = ξ − ⅓, η − ⅓ (right-hand
+    /// side 0), imposed with RT_2 (`HIGHER_SYMMETRY`).
+    shi: [[f64; 2 * MAX_RT_DOFS]; 2],
     /// Its right-hand side: the rotation moment this patch carries on T for its neighbours
     /// (the flows' as-moments; 0 without flows).
     asym: f64,
