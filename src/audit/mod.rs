@@ -815,10 +815,23 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     if let Some(p) = &patch_info {
         notes.push(format!(
             "patch reconstruction: {} vertex patches (up to {} unknowns), {} active contact \
-             constraints{}{}{}",
+             constraints{}{}{}{}",
             p.patches,
             p.max_unknowns,
             p.active,
+            if p.p1_symmetry_dropped > 0 {
+                format!(
+                    ", {} solved without the P_1 weak-symmetry rows (infeasible there; \
+                     docs/design.md §5.10)",
+                    if p.p1_symmetry_dropped == 1 {
+                        "1 patch".to_string()
+                    } else {
+                        format!("{} patches", p.p1_symmetry_dropped)
+                    }
+                )
+            } else {
+                String::new()
+            },
             if p.balanced {
                 format!(
                     ", loads rebalanced between patches (largest force defect of a closed patch \
