@@ -275,6 +275,8 @@ def main(argv):
     ap.add_argument("--corner", type=float, default=0.004,
                     help="mesh size at the top corners (+-1, 1) at k = 1, divided by k (0: geometry.half_disc as is)")
     ap.add_argument("--check-quadrature", action="store_true", help="also integrate with subdiv 1 and 2*subdiv")
+    ap.add_argument("--json", metavar="PATH",
+                    help="also write the fixtures' errors and the reference's own error there (JSON)")
     ap.add_argument("fixtures", nargs="*", default=["hertz_skfem_p2", "hertz_skfem_p1"])
     a = ap.parse_args(argv)
     T0 = time.time()
@@ -314,6 +316,14 @@ def main(argv):
                   f"sqrt(E_ref - E_inf) = {np.sqrt(E3 - Einf):.3e} (energy-based estimate of the reference's own error)")
     else:
         est = None
+    record = {
+        "what": "true energy error (1/2 (C eps(u - u_h), eps(u - u_h)))^(1/2) of each fixture's u_h "
+                "against the fine scikit-fem reference (reference/hertz/fine_error.py)",
+        "levels": levels,
+        "reference_error_estimate": est,
+        "reference_error_bound": self_err[levels[-2]] if len(levels) >= 2 else None,
+        "fixtures": {},
+    }
     for name in a.fixtures:
         t0 = time.time()
         c = read_fixture(name)
@@ -347,6 +357,13 @@ def main(argv):
                 line += f"  quadrature check, subdiv {sd}: e = {q['e']:.6e}\n"
         line += f"  time {time.time() - t0:.1f} s"
         print(line, flush=True)
+        record["fixtures"][name] = {"energy_error": r["e"], "energy_error_extended": r["e_ext"],
+                                    "skipped_area": r["skipped_area"]}
+    if a.json:
+        import json
+        with open(a.json, "w") as fh:
+            json.dump(record, fh, indent=1)
+            fh.write("\n")
     print(f"\ntotal time {time.time() - T0:.1f} s")
 
 
