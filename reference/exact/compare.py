@@ -3,18 +3,28 @@
 Every number is compared with |a - b| <= rtol * max(|a|, |b|) + floor(path).  The floor is zero
 except for quantities that are round-off by construction (an exact case's F terms, the
 admissibility maxima of exact data, ...), whose digits are not reproducible across machines:
-  energy-like (functional.*, *.eta2, bound.value, boundary terms, hand.*)   1e-18 * energy
+  energy-like (functional.*, *.eta2, bound.value, boundary terms, hand.*)   1e-16 * energy
   square roots of those (eta, *.eta, energy_error_bound)                    1e-9 * sqrt(energy)
   relative                                                                  1e-9
   stress-like maxima / L2 norms / forces / tolerance                        1e-12 * stress scale
   displacement-like maxima / L2 norms                                       1e-12 * displacement scale
+                                                                            (1e-13 without one)
 Locations of a maximum (admissibility_location.*) and the cell index of a `cells.worst` entry are
 skipped when the value they locate is itself at the round-off floor.  Strings are compared exactly
 except the few known to carry paths; integers exactly.
 """
 import math
 
-SKIP_KEYS = {"elapsed_seconds"}
+# elapsed_seconds: a time. edge_pieces and the *_strict lengths: counts and lengths of a
+# classification by strict inequalities (|sigma_t| < F|sigma_n|, g - u_n > tol) whose ties are
+# decided by round-off: exact cases sit on the ties by construction, and on an AMD EPYC host
+# perturbed_friction's stick_length_strict went 0.167 -> 0.322 and edge_pieces moved by 1-7 on
+# the other fixtures with every other number within the floors. Their non-strict counterparts
+# (active_length, stick_length, ...) are still compared.
+# roundoff_keys (case block): the list of paths at the floors below, derived metadata that
+# follows the floors themselves (they were widened for cross-machine round-off).
+SKIP_KEYS = {"elapsed_seconds", "edge_pieces", "active_length_strict", "stick_length_strict",
+             "slip_length_strict", "roundoff_keys"}
 STRESS_WORDS = ("tension", "cone", "neumann", "tolerance", "sigma_n_scale", "tangential_force",
                 "normal_force", "friction_term_negative")
 DISP_WORDS = ("penetration", "dirichlet")
@@ -40,12 +50,14 @@ def floor_for(path, energy, stress, disp):
     if last in ("eta", "energy_error_bound"):
         return 1e-9 * math.sqrt(energy)
     if any(w in p for w in DISP_WORDS):
-        return 1e-12 * disp
+        # Cases without a displacement scale (the other codes' fixtures): 1e-13 absolute, far
+        # below any displacement they hold (1e-6 .. 1e-1) and above the 1e-14 round-off seen.
+        return 1e-12 * disp if disp > 0 else 1e-13
     if any(w in p for w in STRESS_WORDS):
         return 1e-12 * stress
     if (p.startswith("functional") or p.startswith("hand") or last in ("eta2", "value", "complementarity",
                                                                           "friction_term", "friction")):
-        return 1e-18 * energy
+        return 1e-16 * energy
     return 0.0
 
 

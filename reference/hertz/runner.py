@@ -85,9 +85,9 @@ def _clean(o):
 VOLATILE = {"final_residual", "residual", "time_s", "versions"}
 
 
-def compare(a, b, path="", rtol=1e-8, out=None):
+def compare(a, b, path="", rtol=1e-8, out=None, atol=1e-13):
     """Differences between two expected.json trees (numbers: relative tolerance rtol, absolute floor
-    1e-13; keys in VOLATILE: only both <= 1e-8 (residuals) or ignored (times, versions))."""
+    atol; keys in VOLATILE: only both <= 1e-8 (residuals) or ignored (times, versions))."""
     out = [] if out is None else out
     key = path.rsplit(".", 1)[-1]
     if key in VOLATILE:
@@ -100,13 +100,13 @@ def compare(a, b, path="", rtol=1e-8, out=None):
             if k not in a or k not in b:
                 out.append(f"{path}.{k}: missing on one side")
             else:
-                compare(a[k], b[k], f"{path}.{k}", rtol, out)
+                compare(a[k], b[k], f"{path}.{k}", rtol, out, atol)
     elif isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             out.append(f"{path}: length {len(a)} vs {len(b)}")
         else:
             for i, (x, y) in enumerate(zip(a, b)):
-                compare(x, y, f"{path}[{i}]", rtol, out)
+                compare(x, y, f"{path}[{i}]", rtol, out, atol)
     elif isinstance(a, bool) or isinstance(b, bool) or isinstance(a, str) or a is None or b is None:
         if a != b:
             out.append(f"{path}: {a!r} vs {b!r}")
@@ -114,7 +114,10 @@ def compare(a, b, path="", rtol=1e-8, out=None):
         if a != b:
             out.append(f"{path}: {a} vs {b}")
     elif isinstance(a, (int, float)) and isinstance(b, (int, float)):
-        if abs(a - b) > max(rtol * max(abs(a), abs(b)), 1e-13):
+        # A deviation in percent from a closed form cancels digits: at the re-run tolerance its
+        # floor is 1e-4 percentage points (1e-6 of the quantity; the nu = 0.5 p_max moved 2e-6).
+        floor = max(atol, 1e-4) if rtol >= 1e-6 and "percent" in path else atol
+        if abs(a - b) > max(rtol * max(abs(a), abs(b)), floor):
             out.append(f"{path}: {a!r} vs {b!r} (rel {abs(a - b) / max(abs(a), abs(b), 1e-300):.2e})")
     else:
         out.append(f"{path}: type {type(a).__name__} vs {type(b).__name__}")
@@ -201,7 +204,13 @@ def run(cases, make_one, argv, family):
                     bad += 1
                     continue
                 ref = json.loads(ref_path.read_text())
-                diffs = compare(ref, json.loads((Path(out) / name / "expected.json").read_text()), name)
+                # A re-run of the solver reproduces its numbers only to the solver's round-off times
+                # the conditioning, which depends on the machine's BLAS kernels: on an AMD EPYC
+                # host the Taylor-Hood nu = 0.5 case moved by 3e-8 relative and the top
+                # reactions' Fx (zero by symmetry, ~1e-13 of Fy ~ 1e2) by 100 %. So 1e-6
+                # relative with a 1e-10 floor here; the committed VTU below is re-evaluated at 1e-8.
+                diffs = compare(ref, json.loads((Path(out) / name / "expected.json").read_text()), name,
+                                rtol=1e-6, atol=1e-10)
                 # the committed VTU must also reproduce the committed numbers
                 scene = tomllib.loads((Path(a.out) / name / "scene.toml").read_text())
                 cfg = dict(ref["file"], delta=ref["tolerances"]["gap_delta"], ucomp=ref["file"]["displacement_components"],
