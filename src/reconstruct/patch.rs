@@ -1136,36 +1136,25 @@ fn solve_patch_rows(
             }
         }
         if weak_symmetry {
-            for r in 0..2 {
-                for y in 0..nred {
-                    g_red[r * nred + y] = (0..nloc)
-                        .map(|c| part.srow[r * nloc + c] * re.transform[c * nred + y])
-                        .sum();
-                }
-            }
-            let d = part.asym
-                - part.srow[..nl]
-                    .iter()
-                    .zip(&part.c0[..nl])
-                    .map(|(a, b)| a * b)
-                    .sum::<f64>();
-            push_row(&g_red[..nr], d);
-            if higher {
-                for srow in &part.shi {
-                    for r in 0..2 {
-                        for y in 0..nred {
-                            g_red[r * nred + y] = (0..nloc)
-                                .map(|c| srow[r * nloc + c] * re.transform[c * nred + y])
-                                .sum();
-                        }
+            // The constant row (right-hand side: the flows' as-moment), then the P_1 rows (0).
+            let nhigher = if higher { part.shi.len() } else { 0 };
+            let sym_rows = std::iter::once((&part.srow, part.asym))
+                .chain(part.shi[..nhigher].iter().map(|row| (row, 0.0)));
+            for (srow, rhs) in sym_rows {
+                for r in 0..2 {
+                    for y in 0..nred {
+                        g_red[r * nred + y] = (0..nloc)
+                            .map(|c| srow[r * nloc + c] * re.transform[c * nred + y])
+                            .sum();
                     }
-                    let d = -srow[..nl]
+                }
+                let d = rhs
+                    - srow[..nl]
                         .iter()
                         .zip(&part.c0[..nl])
                         .map(|(a, b)| a * b)
                         .sum::<f64>();
-                    push_row(&g_red[..nr], d);
-                }
+                push_row(&g_red[..nr], d);
             }
         }
         parts.push(part);
@@ -1262,27 +1251,14 @@ fn solve_patch_rows(
             }
         }
         if weak_symmetry {
-            let (mut sres, mut abs) = (-part.asym, part.asym.abs());
-            for r in 0..2 {
-                for i in 0..nloc {
-                    let v = part.srow[r * nloc + i] * c[r][i];
-                    sres += v;
-                    abs += v.abs();
-                }
-            }
+            let (value, terms) = row_value(&part.srow, &c, nloc);
+            let (sres, abs) = (value - part.asym, terms + part.asym.abs());
             worst = worst.max(sres.abs());
             scale = scale.max(abs);
             if higher {
                 for srow in &part.shi {
-                    let (mut hres, mut habs) = (0.0, 0.0);
-                    for r in 0..2 {
-                        for i in 0..nloc {
-                            let v = srow[r * nloc + i] * c[r][i];
-                            hres += v;
-                            habs += v.abs();
-                        }
-                    }
-                    higher_worst = higher_worst.max(f64::abs(hres));
+                    let (hres, habs) = row_value(srow, &c, nloc);
+                    higher_worst = higher_worst.max(hres.abs());
                     higher_scale = higher_scale.max(habs);
                 }
             }
@@ -1528,6 +1504,20 @@ fn relative_balance(balance: [f64; 3], scale: f64) -> f64 {
     if scale > 0.0 { b / scale } else { 0.0 }
 }
 
+/// A symmetry row applied to a cell's coefficients (rows r = 0, 1, local functions i < nloc):
+/// Σ row[r·nloc + i] c[r][i], and the sum of the magnitudes of its terms (its round-off scale).
+fn row_value(row: &[f64; 2 * MAX_RT_DOFS], c: &[[f64; MAX_RT_DOFS]; 2], nloc: usize) -> (f64, f64) {
+    let (mut value, mut terms) = (0.0, 0.0);
+    for (r, cr) in c.iter().enumerate() {
+        for (i, ci) in cr.iter().enumerate().take(nloc) {
+            let v = row[r * nloc + i] * ci;
+            value += v;
+            terms += v.abs();
+        }
+    }
+    (value, terms)
+}
+
 /// The rows ∫_T (τ_xy − τ_yx) q̂ dx over the local functions of both rows (row 0: τ_xy, row 1:
 /// −τ_yx), q̂ = ξ − ⅓ and η − ⅓. With φ = Jφ̂/det J and dx = det J dξ the integrand is
 /// (Jφ̂)_s q̂: on a straight cell J is constant and the moments ∫_T̂ q̂ φ̂ of condense.rs give the
@@ -1593,7 +1583,7 @@ struct CellPart {
     /// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions.
     srow: [f64; 2 * MAX_RT_DOFS],
     /// The higher weak-symmetry rows ∫_T (τ_xy − τ_yx) q̂ for q̂ = ξ − ⅓, η − ⅓ (right-hand
-    /// side 0), imposed with RT_2 (`HIGHER_SYMMETRY`).
+    /// side 0), imposed with RT_2 unless the patch cannot meet them ([`solve_patch`]).
     shi: [[f64; 2 * MAX_RT_DOFS]; 2],
     /// Its right-hand side: the rotation moment this patch carries on T for its neighbours
     /// (the flows' as-moments; 0 without flows).
