@@ -28,7 +28,7 @@ use std::f64::consts::PI;
 use std::sync::{Mutex, OnceLock};
 
 /// A quadrature rule on the reference triangle (0,0), (1,0), (0,1).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriangleRule {
     /// Exact for all polynomials of total degree ≤ `degree`.
     pub degree: usize,
@@ -124,6 +124,44 @@ pub fn line_rule(degree: usize) -> LineRule {
         degree: 2 * n - 1,
         points: x.iter().map(|&x| 0.5 * (1.0 + x)).collect(),
         weights: w.iter().map(|&w| 0.5 * w).collect(),
+    }
+}
+
+/// [`triangle_rule`]`(degree)` on each of the 4^`levels` triangles of the uniform (midpoint)
+/// refinement of the reference triangle: exact to `degree` for piecewise polynomials on that
+/// refinement, and with points distinct from those of the single rule (the bubble fit of
+/// `estimate::bubble` is checked on them, so that a fit to the rule's own points cannot
+/// under-read a non-polynomial residual).
+pub fn split_rule(degree: usize, levels: u32) -> TriangleRule {
+    let base = triangle_rule(degree);
+    let mut tris = vec![[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]];
+    for _ in 0..levels {
+        let mid = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        tris = tris
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+                [[a, ab, ca], [ab, b, bc], [ca, bc, c], [bc, ca, ab]]
+            })
+            .collect();
+    }
+    let mut points = Vec::with_capacity(tris.len() * base.points.len());
+    let mut weights = Vec::with_capacity(points.capacity());
+    for [a, b, c] in tris {
+        let (e, f) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+        let det = (e[0] * f[1] - e[1] * f[0]).abs();
+        for (p, w) in base.points.iter().zip(&base.weights) {
+            points.push([
+                a[0] + p[0] * e[0] + p[1] * f[0],
+                a[1] + p[0] * e[1] + p[1] * f[1],
+            ]);
+            weights.push(w * det);
+        }
+    }
+    TriangleRule {
+        degree: base.degree,
+        points,
+        weights,
     }
 }
 
@@ -542,6 +580,22 @@ fn newton(mut x: f64, f: impl Fn(f64) -> (f64, f64)) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn split_rule_integrates_a_kinked_function_and_monomials() {
+        // ∫_T |x − ½| over the reference triangle, by hand: the kink x = ½ is an edge of the
+        // refinement, so the split rule is exact: ∫_0^½ (½ − x)(1 − x) dx + ∫_½^1 (x − ½)(1 − x) dx
+        // = 5/48 + 1/48 = 1/8.
+        let r = split_rule(2, 1);
+        assert_eq!(r.points.len(), 4 * triangle_rule(2).points.len());
+        let k = r.integrate(|p| (p[0] - 0.5).abs());
+        assert!((k - 0.125).abs() < 1e-15, "{k}");
+        // x²y³: 2!3!/7! = 12/5040.
+        let m = split_rule(5, 2).integrate(|p| p[0] * p[0] * p[1].powi(3));
+        assert!((m - 12.0 / 5040.0).abs() < 1e-16, "{m}");
+        let single = triangle_rule(2);
+        assert!(r.points.iter().all(|p| !single.points.contains(p)));
+    }
 
     /// ∫_T̂ ξ^a η^b = a! b! / (a + b + 2)!.
     fn triangle_moment(a: usize, b: usize) -> f64 {

@@ -160,13 +160,19 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
             let rate = log2_ratio(&bounds, 1);
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
-        // Efficiency on the two finest meshes against the exact solution: P1 1.68 / 1.40, P2
-        // 1.79 / 1.60 (P_1 weak symmetry and the recovered-strain target; with constant weak
-        // symmetry 1.99 / 1.59 and 1.97 / 1.84; with the piecewise Cε(u_h) target too 2.18 /
-        // 1.86 and 2.04 / 1.87; P1 3.71 at n = 32 with RT_1 and the Korn asymmetry term).
-        for i in [2, 3] {
+        // Efficiency against the exact solution (n = 4 / 8 / 16 / 32): P1 2.59 / 1.77 / 1.28 /
+        // 1.13, P2 3.43 / 2.45 / 1.68 / 1.53 (hypercircle combination of the lifting, bubble
+        // S ∈ P₄ measured off its fit points); before them P1 3.17 / 2.32 / 1.68 / 1.40, P2
+        // 3.96 / 2.72 / 1.79 / 1.60, with P2 under-read (its fit measured on its own points).
+        // ≤ 2 from n = 8 on P1 (≤ 1.5 at n = 32) and from n = 16 on P2.
+        let from = if p == 1 { 1 } else { 2 };
+        for i in from..4 {
             let index = bounds[i] / truths[i];
             assert!(index <= 2.0, "P{p} mesh {i}: efficiency index {index}");
+        }
+        if p == 1 {
+            let index = bounds[3] / truths[3];
+            assert!(index <= 1.5, "P1 n = 32: efficiency index {index}");
         }
         let rate = log2_ratio(&bounds, 2);
         let asymptotic = if p == 2 { 1.8 } else { 0.9 };

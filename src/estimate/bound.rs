@@ -27,11 +27,11 @@ use serde::Serialize;
 
 use super::{Admissibility, Terms, failed_checks};
 use super::{bubble, data, lift, symmetric};
-use crate::field::StressField;
+use crate::field::{RtStress, StressField};
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
 use crate::problem::Context;
-use crate::quadrature::triangle_rule_cached;
+use crate::quadrature::{TriangleRule, triangle_rule_cached};
 use crate::tolerance::{
     BOUND_MOMENT_RELATIVE, BUBBLE_WORTH, LOAD_DEGREE, STRAIGHT_MID_RELATIVE, SYMMETRIC_RESIDUAL,
     UNCERTIFIED_NEGLIGIBLE,
@@ -63,6 +63,15 @@ pub struct BoundTerms {
     /// cells needs only their sum per cell (docs/design.md §6.2).
     #[serde(default)]
     pub combined: f64,
+    /// O = (Σ_T ((η_osc,T + η_as,T + η_tr,T)/√c_min)²)^½, the bound of the pairing
+    /// (div τ + f, w) + (as τ, skw ∇w) + ⟨t − τn, w⟩_{Γ_N} against |||w||| (Cauchy–Schwarz over
+    /// the cells), used by the hypercircle forms (docs/design.md §6.2 "Combination").
+    #[serde(default)]
+    pub pairing: f64,
+    /// Which combination gave `energy_error`: "triangle" (|||u − v||| ≤ ½(R + √(R² + 4c)) +
+    /// |||z|||), "hypercircle" or "hypercircle-quadratic" (docs/design.md §6.2 "Combination").
+    #[serde(default)]
+    pub combination: String,
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
@@ -108,13 +117,47 @@ impl Bound {
     }
 }
 
-/// (½)^½ (½(R + √(R² + 4c)) + ‖v − u_h‖_E + |||z|||), R = `combined` (module doc).
+/// (½)^½ (E + ‖v − u_h‖_E) with E the least of three upper bounds of |||u − v|||
+/// (docs/design.md §6.2 "Combination"); with a = ½(R + √(R² + 4c)) ≥ |||u − v'|||,
+/// v' = v + z, P = η_PS(v), Z = |||z|||, O = `pairing`:
+///
+/// ```text
+/// triangle:               E ≤ a + Z
+/// hypercircle:            E² ≤ P² + Z² + 2c + 2O a
+/// hypercircle-quadratic:  E ≤ O + √(O² + P² + Z² + 2c + 2OZ)
+/// ```
+///
+/// The hypercircle forms rest on |||u − v|||² = P² − b² + 2(σ − sym τ, ε(u − v')) +
+/// 2(σ − sym τ, ε(z)) with b = ‖σ − sym τ‖_A, the second pairing ≤ bZ and −b² + 2bZ ≤ Z², so
+/// the Dirichlet lifting enters squared instead of twice linearly.
+fn combine(t: &BoundTerms) -> (f64, &'static str) {
+    let (r, p, o, z) = (t.combined, t.prager_synge, t.pairing, t.dirichlet_lift);
+    let c = t.complementarity.max(0.0);
+    let a = 0.5 * (r + (r * r + 4.0 * c).sqrt());
+    let forms = [
+        (a + z, "triangle"),
+        (
+            (p * p + z * z + 2.0 * c + 2.0 * o * a).sqrt(),
+            "hypercircle",
+        ),
+        (
+            o + (o * o + p * p + z * z + 2.0 * c + 2.0 * o * z).sqrt(),
+            "hypercircle-quadratic",
+        ),
+    ];
+    // NaN terms must not be hidden by the minimum: they poison every form alike.
+    if forms.iter().any(|f| !f.0.is_finite()) {
+        return (f64::NAN, "triangle");
+    }
+    forms.into_iter().fold(
+        (f64::INFINITY, "triangle"),
+        |m, f| if f.0 < m.0 { f } else { m },
+    )
+}
+
+/// (½)^½ (E + ‖v − u_h‖_E), E from [`combine`].
 fn energy_error(t: &BoundTerms) -> f64 {
-    let r = t.combined;
-    let w = 0.5 * (r + (r * r + 4.0 * t.complementarity.max(0.0)).sqrt())
-        + t.projection
-        + t.dirichlet_lift;
-    0.5f64.sqrt() * w
+    0.5f64.sqrt() * (combine(t).0 + t.projection)
 }
 
 /// Per-cell results of the pass over the cells.
@@ -194,6 +237,17 @@ pub fn bound(
     let c_min = (2.0 * el.mu).min(2.0 * (el.mu + el.lambda));
     let f_expr = ctx.scene.body_force.as_ref();
     let f_poly = f_expr.is_none_or(|f| f[0].is_constant() && f[1].is_constant());
+    // The bubble fit's points (the load rule on the 4 cells of the split) and the points on
+    // which its result is measured (a Gauss–Jacobi rule on the same split, other points, exact
+    // to degree 15 ≥ 2 deg δ for |sym τ + δ − Cε(v)|²).
+    let (fit_rule, check_rule) = if f_poly {
+        (TriangleRule::default(), TriangleRule::default())
+    } else {
+        (
+            crate::quadrature::split_rule(LOAD_DEGREE, 1),
+            crate::quadrature::split_rule(2 * bubble::Bubble::DEGREE, 1),
+        )
+    };
     // (sigma_scale: the round-off floor of the moment checks, the stress scale times the
     // cell's area; a zero divergence or asymmetry has nothing else to be measured against.)
     let cells: Vec<Cell> = (0..mesh.len())
@@ -232,7 +286,6 @@ pub fn bound(
                 && sh == Shape::Affine
                 && !fam.is_quad()
                 && matches!(sigma, StressField::Rt(_));
-            let mut kept: Vec<bubble::Point> = Vec::new();
             for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
                 let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
                 let w = wq * sp.jac.det;
@@ -275,15 +328,6 @@ pub fn bound(
                 };
                 let r = [d[0] + fv[0], d[1] + fv[1]];
                 r2 += w * (r[0] * r[0] + r[1] * r[1]);
-                if relieve {
-                    let ce = el.stress(eps);
-                    kept.push(bubble::Point {
-                        w,
-                        lam: [1.0 - xi[0] - xi[1], xi[0], xi[1]],
-                        mismatch: [s[0] - ce[0], ss - ce[1], ss - ce[2], s[3] - ce[3]],
-                        r,
-                    });
-                }
                 let rot = [-(sp.x[1] - centre[1]), sp.x[0] - centre[0]];
                 mom[0] += w * r[0];
                 mom[1] += w * r[1];
@@ -298,13 +342,49 @@ pub fn bound(
             // Only where the oscillation is a visible part of the cell's share (a fit costs
             // ~0.2 ms; any δ, or none, gives a valid bound).
             let weight = osc_factor * osc_factor / c_min;
-            let fitted = if relieve && weight * r2 > BUBBLE_WORTH * c.ps2 {
-                bubble::fit(verts, &el, weight, &kept)
-            } else {
-                None
+            // The bubble's data at a reference point of the cell (RT stress, straight cell).
+            let point = |rt: &RtStress, xi: [f64; 2], wq: f64| {
+                let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+                let gu = sp.gradient_at(nodes, v);
+                let (s, d) = rt.at(rt.first[t] as usize, &sp.jac, xi);
+                let sym = 0.5 * (gu[0][1] + gu[1][0]);
+                let ce = el.stress([gu[0][0], sym, sym, gu[1][1]]);
+                let ss = 0.5 * (s[1] + s[2]);
+                let fv = f_expr.map_or([0.0; 2], |fe| {
+                    [
+                        fe[0].eval(sp.x[0], sp.x[1], 0.0),
+                        fe[1].eval(sp.x[0], sp.x[1], 0.0),
+                    ]
+                });
+                bubble::Point {
+                    w: wq * sp.jac.det,
+                    lam: [1.0 - xi[0] - xi[1], xi[0], xi[1]],
+                    mismatch: [s[0] - ce[0], ss - ce[1], ss - ce[2], s[3] - ce[3]],
+                    r: [d[0] + fv[0], d[1] + fv[1]],
+                }
             };
-            if let Some(b) = &fitted {
-                (c.ps2, r2) = bubble::share(&el, &kept, Some(b));
+            let mut fitted = None;
+            if let (true, StressField::Rt(rt)) =
+                (relieve && weight * r2 > BUBBLE_WORTH * c.ps2, sigma)
+            {
+                // Fitted on the points of `fit_rule`, its ‖r + div δ‖ taken on those of
+                // `check_rule`: a fit can match a non-polynomial r (a kink inside the cell) at
+                // its own points far better than in L² (S ∈ P₃ read r2 up to 2.2× low there).
+                let kept: Vec<bubble::Point> = (fit_rule.points.iter().zip(&fit_rule.weights))
+                    .map(|(&xi, &wq)| point(rt, xi, wq))
+                    .collect();
+                if let Some(b) = bubble::fit(verts, &el, weight, &kept) {
+                    let check: Vec<bubble::Point> =
+                        (check_rule.points.iter().zip(&check_rule.weights))
+                            .map(|(&xi, &wq)| point(rt, xi, wq))
+                            .collect();
+                    let (ps2, r2b) = bubble::share(&el, &check, Some(&b));
+                    // Kept only if the cell's share really decreases (any δ, or none, is valid).
+                    if ps2 + weight * r2b < c.ps2 + weight * r2 {
+                        (c.ps2, r2) = (ps2, r2b);
+                        fitted = Some(b);
+                    }
+                }
             }
             c.osc = osc_factor * r2.sqrt();
             c.asym = 0.5 * korn * a2.sqrt();
@@ -376,7 +456,7 @@ pub fn bound(
     let traction = (dt.trace.iter().map(|e| e * e).sum::<f64>() / c_min).sqrt();
     let energy: f64 = cells.iter().map(|c| c.energy).sum();
     let korn_max = cells.iter().fold(0.0f64, |m, c| m.max(c.korn));
-    let terms = BoundTerms {
+    let mut terms = BoundTerms {
         prager_synge: ps,
         complementarity: f.complementarity
             + f.friction
@@ -387,9 +467,18 @@ pub fn bound(
         traction,
         dirichlet_lift: dt.lift.iter().map(|z| z * z).sum::<f64>().sqrt(),
         combined: cells.iter().map(|c| c.local).sum::<f64>().sqrt(),
+        pairing: (cells
+            .iter()
+            .zip(&dt.trace)
+            .map(|(c, tr)| (c.osc + c.asym + tr).powi(2))
+            .sum::<f64>()
+            / c_min)
+            .sqrt(),
+        combination: String::new(),
         korn_max,
         symmetrised_cells: cells.iter().filter(|c| c.symmetrised).count(),
     };
+    terms.combination = combine(&terms).1.to_string();
     let energy_error = energy_error(&terms);
 
     if frictional {
@@ -517,9 +606,11 @@ mod tests {
     #[test]
     fn the_projection_distance_is_added_by_the_triangle_inequality() {
         // R = 3 + 1, c = 0: |||u − v||| ≤ 4; + 1 for the projection; energy_error = √½ × that.
+        // (The hypercircle forms give √(9 + 8) and 1 + √10, both above 4.)
         let terms = BoundTerms {
             prager_synge: 3.0,
             asymmetry: 1.0,
+            pairing: 1.0,
             combined: 4.0,
             ..Default::default()
         };
@@ -533,6 +624,39 @@ mod tests {
         b.add_projection(1.0);
         assert!((b.energy_error.unwrap() - 5.0 * 0.5f64.sqrt()).abs() < 1e-15);
         assert!((b.relative.unwrap() - 2.5 * 0.5f64.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_lifting_enters_squared_in_the_hypercircle_forms() {
+        // P = 3, Z = 1, no pairing, c = 0: R = P + Z = 4, triangle a + Z = 5; hypercircle
+        // √(P² + Z²) = √10 (by hand: P² − b² + 2bZ ≤ P² + Z²).
+        let mut t = BoundTerms {
+            prager_synge: 3.0,
+            dirichlet_lift: 1.0,
+            combined: 4.0,
+            ..Default::default()
+        };
+        let (e, form) = combine(&t);
+        assert!((e - 10f64.sqrt()).abs() < 1e-15, "{e}");
+        assert_eq!(form, "hypercircle");
+        // With c = 2: a = ½(4 + √(16 + 8)) = 2 + √6; hypercircle √(9 + 1 + 4) = √14.
+        t.complementarity = 2.0;
+        assert!((combine(&t).0 - 14f64.sqrt()).abs() < 1e-15);
+        // A large pairing O = 3 (R = 7): triangle 7 + 1 = 8 (c = 0); hypercircle
+        // √(10 + 42) = 7.21…; quadratic 3 + √(9 + 10 + 6) = 8: the hypercircle wins.
+        t.complementarity = 0.0;
+        t.pairing = 3.0;
+        t.combined = 7.0;
+        let (e, form) = combine(&t);
+        assert!((e - 52f64.sqrt()).abs() < 1e-14, "{e}");
+        assert_eq!(form, "hypercircle");
+        // Without a lifting, O = 3, P = 3, R = 6: triangle 6 beats √(9 + 36) and 3 + √18.
+        t.dirichlet_lift = 0.0;
+        t.combined = 6.0;
+        assert_eq!(combine(&t), (6.0, "triangle"));
+        // A NaN term is never hidden by the minimum.
+        t.prager_synge = f64::NAN;
+        assert!(combine(&t).0.is_nan());
     }
 
     #[test]

@@ -8,7 +8,7 @@
 //! δ = b S,   S = Σ_{|α| = j, c} s_αc λ^α E_c,   E_xx, E_xy = e_x⊗e_y + e_y⊗e_x, E_yy,
 //! ```
 //!
-//! with j = [`S_DEGREE`] = 3 (30 unknowns; δ has degree j + 3, div δ degree j + 2).
+//! with j = [`S_DEGREE`] = 4 (45 unknowns; δ has degree j + 3, div δ degree j + 2).
 //!
 //! δ vanishes on ∂T (so τ + δ keeps every normal trace: continuity, tractions and contact
 //! signs), it is symmetric (as(τ + δ) = as τ: the symmetric correction of §5.11 is unchanged),
@@ -20,16 +20,17 @@
 //! ‖sym τ + δ − Cε(v)‖²_A + W ‖r + div δ‖²,    W = (h_T/π)² (1 + ½K_T²) / c_min,
 //! ```
 //!
-//! i.e. η_PS,T² + η_osc,T² of the module `bound`: the part of r that div δ ∈ P₅ can reach is
+//! i.e. η_PS,T² + η_osc,T² of the module `bound`: the part of r that div δ ∈ P₆ can reach is
 //! paid for in the A-norm of δ, with no Korn constant, instead of at (h/π)(1 + ½K²)^½ ≈ 2.3 h
-//! with K ≈ 10. Measured on the manufactured P2 family (design §6.2): index 4.99 → 3.33 at
-//! n = 4, 2.10 → 1.86 at n = 32; j = 1 gave 4.74 at n = 4, j = 2 3.93.
+//! with K ≈ 10. The module `bound` fits δ on the points of one rule and measures the share on
+//! the points of another (a fit matches a kinked r at its own points better than in L²).
+//! Measured on the manufactured P2 family (design §6.2), see [`S_DEGREE`].
 
 use crate::material::Elastic;
 use crate::solve::dense::{cholesky, cholesky_solve};
 
 /// Degree j of S: δ = b S has degree j + 3 and div δ reaches P_{j+2}.
-pub const S_DEGREE: usize = 3;
+pub const S_DEGREE: usize = 4;
 
 /// Number of scalars q_α, |α| = j.
 const SCALARS: usize = (S_DEGREE + 1) * (S_DEGREE + 2) / 2;
@@ -155,9 +156,9 @@ pub fn share(el: &Elastic, points: &[Point], b: Option<&Bubble>) -> (f64, f64) {
 }
 
 /// The minimiser of the module doc's cell share over δ = b S on the straight triangle
-/// `verts`, from the normal equations assembled at `points` (exact for the polynomial parts
-/// when the rule is exact to degree 8). None when the share does not decrease (then δ = 0 is
-/// kept) or the system is not positive definite.
+/// `verts`, from the normal equations assembled at `points` (a least-squares fit at those
+/// points: measure the result elsewhere). None when the share at `points` does not decrease
+/// (then δ = 0 is kept) or the system is not positive definite.
 pub fn fit(verts: [[f64; 2]; 3], el: &Elastic, weight: f64, points: &[Point]) -> Option<Bubble> {
     if !(weight.is_finite() && weight > 0.0) {
         return None;
