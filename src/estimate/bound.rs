@@ -5,6 +5,9 @@
 //! |||u − u_h||| ≤ |||u − v||| + ‖v − u_h‖_E (projection distance),
 //! ```
 //!
+//! or, with a Dirichlet lifting z of the data v misses, the least of that triangle form and two
+//! hypercircle forms (`combine`, design §6.2 "Combination"),
+//!
 //! with |||w|||² = (Cε(w), ε(w)), η_PS = ‖C^{1/2}ε(v) − C^{−1/2} sym τ‖, c = ⟨τ_n, v_n − g⟩ (+ the
 //! friction pairing, Tresca-labelled), and per cell, with r = div τ + f ⊥ rigid motions and
 //! ∫_T as τ = 0 (as τ = τ_xy − τ_yx):
