@@ -13,7 +13,7 @@
 //! ∫_T as τ = 0 (as τ = τ_xy − τ_yx):
 //!
 //! ```text
-//! (r, w)_T ≤ (h_T/π) (1 + ½K_T²)^{1/2} ‖r‖_T ‖ε(w)‖_T          (Payne–Weinberger, convex T)
+//! (r, w)_T ≤ (h_T/j₁,₁) (1 + ½K_T²)^{1/2} ‖r‖_T ‖ε(w)‖_T  (Laugesen–Siudeja, triangles; [`J11`])
 //! ½(as τ, rot w)_T ≤ ½ K_T ‖as τ‖_T ‖ε(w)‖_T,   K_T = 2/β_T     (§6.4: ∇rot w = 2 div(Mε(w)))
 //! ‖ε(w)‖ ≤ |||w||| / √c_min,   c_min = min(2μ, 2(μ + λ)).
 //! ```
@@ -162,6 +162,14 @@ fn combine(t: &BoundTerms) -> (f64, &'static str) {
 fn energy_error(t: &BoundTerms) -> f64 {
     0.5f64.sqrt() * (combine(t).0 + t.projection)
 }
+
+/// j₁,₁ ≈ 3.8317, the first positive root of the Bessel function J₁: on a triangle T of
+/// diameter h every mean-free φ ∈ H¹(T) has ‖φ‖_T ≤ (h/j₁,₁)‖∇φ‖_T (Laugesen and Siudeja,
+/// "Minimizing Neumann fundamental tones of triangles: an optimal Poincaré inequality",
+/// J. Differential Equations 249 (2010): μ₁h² is least for the degenerate acute isosceles
+/// triangle, where it tends to j₁,₁²). It replaces Payne–Weinberger's π (any convex domain) on
+/// straight cells; curved cells keep π.
+pub const J11: f64 = 3.831_705_970_207_512;
 
 /// Per-cell results of the pass over the cells.
 #[derive(Clone, Copy, Default)]
@@ -341,7 +349,12 @@ pub fn bound(
                 amean += w * asv;
                 ascale += w * (s[1].abs() + s[2].abs());
             }
-            let osc_factor = h / std::f64::consts::PI * (1.0 + 0.5 * korn * korn).sqrt();
+            let poincare = if sh == Shape::Affine {
+                h / J11
+            } else {
+                h / std::f64::consts::PI
+            };
+            let osc_factor = poincare * (1.0 + 0.5 * korn * korn).sqrt();
             // Only where the oscillation is a visible part of the cell's share (a fit costs
             // ~0.2 ms; any δ, or none, gives a valid bound).
             let weight = osc_factor * osc_factor / c_min;

@@ -17,11 +17,11 @@
 //! needs. Any such δ therefore gives a valid bound; it is chosen to minimise the cell's share
 //!
 //! ```text
-//! ‖sym τ + δ − Cε(v)‖²_A + W ‖r + div δ‖²,    W = (h_T/π)² (1 + ½K_T²) / c_min,
+//! ‖sym τ + δ − Cε(v)‖²_A + W ‖r + div δ‖²,    W = (h_T/j₁,₁)² (1 + ½K_T²) / c_min,
 //! ```
 //!
 //! i.e. η_PS,T² + η_osc,T² of the module `bound`: the part of r that div δ ∈ P₆ can reach is
-//! paid for in the A-norm of δ, with no Korn constant, instead of at (h/π)(1 + ½K²)^½ ≈ 2.3 h
+//! paid for in the A-norm of δ, with no Korn constant, instead of at (h/j₁,₁)(1 + ½K²)^½ ≈ 1.9 h
 //! with K ≈ 10. The module `bound` fits δ on the points of one rule and measures the share on
 //! the points of another (a fit matches a kinked r at its own points better than in L²).
 //! Measured on the manufactured P2 family (design §6.2), see [`S_DEGREE`].

@@ -14,11 +14,12 @@
 //! ‖φ‖²_E ≤ (|E|/|T|) (‖φ‖²_T + h_T ‖φ‖_T ‖∇φ‖_T),
 //! ```
 //!
-//! with ‖φ‖_T ≤ (h_T/π) C_K ‖ε(w)‖_T (Payne–Weinberger) and ‖∇φ‖_T ≤ C_K ‖ε(w)‖_T,
+//! with ‖φ‖_T ≤ (h_T/j₁,₁) C_K ‖ε(w)‖_T (Laugesen–Siudeja's Poincaré constant of a triangle,
+//! `bound::J11`) and ‖∇φ‖_T ≤ C_K ‖ε(w)‖_T,
 //! C_K = (1 + ½K_T²)^½, gives ⟨m, w⟩_E ≤ η_tr,E ‖ε(w)‖_T with
 //!
 //! ```text
-//! η_tr,E = h_T C_K ((|E|/|T|)(1/π² + 1/π))^½ ‖t − τn‖_E,
+//! η_tr,E = h_T C_K ((|E|/|T|)(1/j₁,₁² + 1/j₁,₁))^½ ‖t − τn‖_E,
 //! ```
 //!
 //! added to the cell's oscillation term (same φ, same K_T). Straight cells only.
@@ -223,9 +224,9 @@ fn trace(
     let area = crate::geometry::straight_area(verts);
     let h = crate::geometry::diameter(fam, &x[..fam.nodes()]);
     let korn = super::bound::korn_constant(verts);
-    let pi = std::f64::consts::PI;
+    let j = super::bound::J11;
     let factor =
-        h * (1.0 + 0.5 * korn * korn).sqrt() * (len / area * (1.0 / (pi * pi) + 1.0 / pi)).sqrt();
+        h * (1.0 + 0.5 * korn * korn).sqrt() * (len / area * (1.0 / (j * j) + 1.0 / j)).sqrt();
     Some(factor * m2.sqrt())
 }
 
