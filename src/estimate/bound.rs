@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Admissibility, Terms, failed_checks};
-use super::{bubble, data, lift, symmetric};
+use super::{bubble, data, lift, subcell, symmetric};
 use crate::field::{RtStress, StressField};
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
@@ -372,37 +372,63 @@ pub fn bound(
                         fe[1].eval(sp.x[0], sp.x[1], 0.0),
                     ]
                 });
-                bubble::Point {
+                let pt = bubble::Point {
                     w: wq * sp.jac.det,
                     lam: [1.0 - xi[0] - xi[1], xi[0], xi[1]],
                     mismatch: [s[0] - ce[0], ss - ce[1], ss - ce[2], s[3] - ce[3]],
                     r: [d[0] + fv[0], d[1] + fv[1]],
-                }
+                };
+                (pt, sp.x)
             };
             let mut fitted = None;
+            // The oscillation pairing bounded on the split of T instead (subcell.rs): the
+            // smaller of the two bounds of the cell's pairing, osc_T ‖ε(w)‖_T.
+            let mut split_osc = f64::INFINITY;
             if let (true, StressField::Rt(rt)) =
                 (relieve && weight * r2 > BUBBLE_WORTH * c.ps2, sigma)
             {
                 // Fitted on the points of `fit_rule`, its ‖r + div δ‖ taken on those of
                 // `check_rule`: a fit can match a non-polynomial r (a kink inside the cell) at
                 // its own points far better than in L² (S ∈ P₃ read r2 up to 2.2× low there).
-                let kept: Vec<bubble::Point> = (fit_rule.points.iter().zip(&fit_rule.weights))
-                    .map(|(&xi, &wq)| point(rt, xi, wq))
-                    .collect();
-                if let Some(b) = bubble::fit(verts, &el, weight, &kept) {
-                    let check: Vec<bubble::Point> =
-                        (check_rule.points.iter().zip(&check_rule.weights))
-                            .map(|(&xi, &wq)| point(rt, xi, wq))
-                            .collect();
-                    let (ps2, r2b) = bubble::share(&el, &check, Some(&b));
+                let rule_points = |rule: &TriangleRule| -> Vec<(bubble::Point, [f64; 2])> {
+                    (rule.points.iter().zip(&rule.weights))
+                        .map(|(&xi, &wq)| point(rt, xi, wq))
+                        .collect()
+                };
+                let (kept, check) = (rule_points(&fit_rule), rule_points(&check_rule));
+                let bare = |v: &[(bubble::Point, [f64; 2])]| -> Vec<bubble::Point> {
+                    v.iter().map(|p| p.0).collect()
+                };
+                if let Some(b) = bubble::fit(verts, &el, weight, &bare(&kept)) {
+                    let (ps2, r2b) = bubble::share(&el, &bare(&check), Some(&b));
                     // Kept only if the cell's share really decreases (any δ, or none, is valid).
                     if ps2 + weight * r2b < c.ps2 + weight * r2 {
                         (c.ps2, r2) = (ps2, r2b);
                         fitted = Some(b);
                     }
                 }
+                let residual = |v: &[(bubble::Point, [f64; 2])]| -> Vec<subcell::Point> {
+                    v.iter()
+                        .map(|(p, x)| {
+                            let dd = fitted.as_ref().map_or([0.0; 2], |b| b.divergence(p.lam));
+                            subcell::Point {
+                                w: p.w,
+                                lam: p.lam,
+                                x: *x,
+                                r: [p.r[0] + dd[0], p.r[1] + dd[1]],
+                            }
+                        })
+                        .collect()
+                };
+                let half = 0.5 * osc_factor;
+                let w_split = half * half / c_min;
+                if let Some((_, relief)) =
+                    subcell::relieve(verts, &el, w_split, &residual(&kept), &residual(&check))
+                {
+                    split_osc = half * relief.residual + c_min.sqrt() * relief.energy;
+                }
             }
-            c.osc = osc_factor * r2.sqrt();
+            c.osc = (osc_factor * r2.sqrt()).min(split_osc);
             c.asym = 0.5 * korn * a2.sqrt();
             let area = crate::geometry::straight_area(verts);
             mscale = mscale.max(sigma_scale * area);

@@ -198,6 +198,7 @@ pub mod data;
 pub mod interior;
 pub mod lift;
 pub mod reaction;
+pub mod subcell;
 pub mod symmetric;
 
 use crate::problem::Context;
