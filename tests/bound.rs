@@ -160,18 +160,20 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
             let rate = log2_ratio(&bounds, 1);
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
-        // Efficiency against the exact solution (n = 4 / 8 / 16 / 32): P1 2.45 / 1.74 / 1.27 /
-        // 1.12, P2 3.03 / 2.21 / 1.60 / 1.48 (hypercircle combination of the lifting, bubble
-        // S ∈ P₄ measured off its fit points, Laugesen–Siudeja's h/j₁,₁); before them P1 3.17 /
-        // 2.32 / 1.68 / 1.40, P2 3.96 / 2.72 / 1.79 / 1.60, with P2 under-read (its fit measured
-        // on its own points). ≤ 2 from n = 8 on P1 and from n = 16 on P2, ≤ 1.5 at n = 32.
-        let from = if p == 1 { 1 } else { 2 };
-        for i in from..4 {
+        // Efficiency against the exact solution (n = 4 / 8 / 16 / 32): P1 2.10 / 1.62 / 1.25 /
+        // 1.11, P2 2.04 / 1.56 / 1.38 / 1.30 (hypercircle combination of the lifting, bubble
+        // S ∈ P₄ measured off its fit points, Laugesen–Siudeja's h/j₁,₁, the oscillation
+        // bounded on the depth-2 split); session 23: P1 3.17 / 2.32 / 1.68 / 1.40, P2 3.96 /
+        // 2.72 / 1.79 / 1.60 (P2 then under-read). ≤ 2 from n = 8, ≤ 1.5 from n = 16; n = 4
+        // is still above 2 (asserted ≤ 2.2, so that a regression there shows).
+        for i in 0..4 {
             let index = bounds[i] / truths[i];
-            assert!(index <= 2.0, "P{p} mesh {i}: efficiency index {index}");
+            let limit = [2.2, 2.0, 1.5, 1.5][i];
+            assert!(
+                index <= limit,
+                "P{p} mesh {i}: efficiency index {index} > {limit}"
+            );
         }
-        let index = bounds[3] / truths[3];
-        assert!(index <= 1.5, "P{p} n = 32: efficiency index {index}");
         let rate = log2_ratio(&bounds, 2);
         let asymptotic = if p == 2 { 1.8 } else { 0.9 };
         assert!(
