@@ -238,6 +238,10 @@ pub fn bound(
     // Data outside the discrete spaces become terms (data.rs); where every such edge has its
     // term, the mismatch is no longer a failed hypothesis.
     let dt = data::data_terms(ctx, v, sigma, sigma_scale);
+    let mut lifts_of: std::collections::HashMap<usize, Vec<data::Lift>> = Default::default();
+    for l in &dt.lifts {
+        lifts_of.entry(l.cell).or_default().push(*l);
+    }
     if dt.traction_covered {
         adm_used.neumann = super::Violation::default();
     }
@@ -509,8 +513,57 @@ pub fn bound(
                     c.symmetrised = true;
                 }
             }
-            c.local =
-                (c.ps2.sqrt() + dt.lift[t] + (c.osc + c.asym + dt.trace[t]) / c_min.sqrt()).powi(2);
+            // η_PS of v' = v + z on a lifted, symmetrised cell: η_PS(v)² + 2X + |||z|||² with
+            // X = (Cε(v) − τ*, ε(z)) (data::lift_pairing), instead of η_PS(v) + |||z|||.
+            let mut ps_lifted = c.ps2.sqrt() + dt.lift[t];
+            if let (Some(lifts), StressField::Rt(rt), true) = (
+                lifts_of.get(&t),
+                sigma,
+                c.symmetrised && sh == Shape::Affine,
+            ) {
+                let first = rt.first[t] as usize;
+                let ce_at = |xi: [f64; 2]| {
+                    let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+                    let gu = sp.gradient_at(nodes, v);
+                    let sym = 0.5 * (gu[0][1] + gu[1][0]);
+                    (sp, el.stress([gu[0][0], sym, sym, gu[1][1]]))
+                };
+                // div Cε(v): Cε(v) is affine on a straight cell, Σ_k ∇λ_k ⊗ its vertex values.
+                let corner = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]].map(|xi| ce_at(xi).1);
+                let dv = (verts[1][0] - verts[0][0]) * (verts[2][1] - verts[0][1])
+                    - (verts[2][0] - verts[0][0]) * (verts[1][1] - verts[0][1]);
+                let gl: [[f64; 2]; 3] = std::array::from_fn(|m| {
+                    let (a, b) = (verts[(m + 1) % 3], verts[(m + 2) % 3]);
+                    [(a[1] - b[1]) / dv, (b[0] - a[0]) / dv]
+                });
+                let div_ce: [f64; 2] = std::array::from_fn(|i| {
+                    (0..3)
+                        .map(|k| corner[k][2 * i] * gl[k][0] + corner[k][2 * i + 1] * gl[k][1])
+                        .sum()
+                });
+                let edge_m = |xi: [f64; 2]| {
+                    let (sp, ce) = ce_at(xi);
+                    let tau = rt.at(first, &sp.jac, xi).0;
+                    std::array::from_fn(|k| ce[k] - tau[k])
+                };
+                let div_m = |xi: [f64; 2]| {
+                    let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+                    let dtau = rt.at(first, &sp.jac, xi).1;
+                    let dd = fitted.as_ref().map_or([0.0; 2], |b| {
+                        b.divergence([1.0 - xi[0] - xi[1], xi[0], xi[1]])
+                    });
+                    [div_ce[0] - dtau[0] - dd[0], div_ce[1] - dtau[1] - dd[1]]
+                };
+                let pairing: Option<f64> = lifts
+                    .iter()
+                    .map(|l| data::lift_pairing(ctx, v, l, edge_m, div_m))
+                    .sum();
+                if let Some(xz) = pairing {
+                    let direct = (c.ps2 + 2.0 * xz + dt.lift[t] * dt.lift[t]).max(0.0).sqrt();
+                    ps_lifted = ps_lifted.min(direct);
+                }
+            }
+            c.local = (ps_lifted + (c.osc + c.asym + dt.trace[t]) / c_min.sqrt()).powi(2);
             c
         })
         .collect();

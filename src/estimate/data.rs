@@ -60,10 +60,22 @@ pub struct DataTerms {
     pub trace: Vec<f64>,
     /// Σ_E |||z_E|||_T over the cell's Dirichlet edges.
     pub lift: Vec<f64>,
+    /// Every lifting z_E, for the pairing (Cε(v) − τ*, ε(z_E))_T (`lift_pairing`).
+    pub lifts: Vec<Lift>,
     /// Every edge with a traction mismatch has its term (orthogonality held, straight cell).
     pub traction_covered: bool,
     /// Every Dirichlet edge was lifted (data met at its ends, straight cell).
     pub dirichlet_covered: bool,
+}
+
+/// One Dirichlet lifting z = t^p d(s) (module doc) on edge `local` of cell `cell`.
+#[derive(Clone, Copy, Debug)]
+pub struct Lift {
+    pub cell: usize,
+    pub local: usize,
+    pub p: f64,
+    /// The scene boundary whose data d = u_D − v is lifted.
+    pub boundary: usize,
 }
 
 /// The data terms for displacement `v` and stress `sigma` (module doc).
@@ -78,6 +90,7 @@ pub fn data_terms(
     let mut out = DataTerms {
         trace: vec![0.0; n],
         lift: vec![0.0; n],
+        lifts: Vec::new(),
         traction_covered: true,
         dirichlet_covered: true,
     };
@@ -96,7 +109,15 @@ pub fn data_terms(
                     .then(|| lifting(ctx, v, t, be.local as usize, displacement, umax))
                     .flatten()
                 {
-                    Some(z) => out.lift[t] += z,
+                    Some((p, z)) => {
+                        out.lift[t] += z;
+                        out.lifts.push(Lift {
+                            cell: t,
+                            local: be.local as usize,
+                            p,
+                            boundary: b,
+                        });
+                    }
                     None => out.dirichlet_covered = false,
                 }
             }
@@ -240,7 +261,7 @@ fn lifting(
     l: usize,
     data: &[crate::expr::Expr; 2],
     umax: f64,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     let mesh = ctx.mesh;
     let (fam, x, nodes) = (mesh.family[t], mesh.coords(t), mesh.nodes(t));
     let edge = Edge::new(&x, l);
@@ -267,9 +288,149 @@ fn lifting(
         }
         (s, w, d, dt)
     });
-    let (_, energy) = collapsed_lifting(&ctx.elastic, edge.a, edge.e, edge.c, samples);
+    let (p, energy) = collapsed_lifting(&ctx.elastic, edge.a, edge.e, edge.c, samples);
     let z = energy.sqrt();
-    z.is_finite().then_some(z)
+    (z.is_finite() && p.is_finite() && p > 0.0).then_some((p, z))
+}
+
+/// Degree up to which the inner integral of [`lift_pairing`] is exact: the divergence of
+/// Cε(v) − τ − δ along a ray from the vertex c (δ the bubble of degree 7, `bubble`).
+const PAIRING_DEGREE: usize = 8;
+
+/// X = (m, ε(z))_T for the lifting `lift` and a symmetric field m = Cε(v) − s on its straight
+/// cell, s the stress whose normal traces on ∂T are those of τ (the symmetric correction and the
+/// bubble add none) and whose divergence is div τ + div δ. z vanishes on the two edges through
+/// c and m is symmetric, so integrating by parts
+///
+/// ```text
+/// X = ⟨m n, z⟩_E − (div m, z)_T
+///   = |E| ∫_0^1 (m n)(x(s)) · d(s) ds − |D| ∫_0^1 d(s) · ∫_0^1 t^(p+1) div m(c + t q(s)) dt ds,
+/// ```
+///
+/// q(s) = a + s e − c, n the outward normal on E. `edge_m(ξ)` gives m at reference point ξ of
+/// the cell, `div_m(ξ)` its divergence. The inner integral is exact for div m of degree ≤
+/// `PAIRING_DEGREE` along the ray (its values at PAIRING_DEGREE + 1 Chebyshev points give the
+/// monomial coefficients c_j, and ∫_0^1 t^(p+1+j) dt = 1/(p + 2 + j)); the outer ones use the
+/// panels of the data terms. Used for η_PS(v + z)² = η_PS(v)² + 2X + |||z|||² (design §6.2).
+pub fn lift_pairing(
+    ctx: &Context,
+    v: &[[f64; 2]],
+    lift: &Lift,
+    edge_m: impl Fn([f64; 2]) -> [f64; 4],
+    div_m: impl Fn([f64; 2]) -> [f64; 2],
+) -> Option<f64> {
+    let mesh = ctx.mesh;
+    let t = lift.cell;
+    let (fam, x, nodes) = (mesh.family[t], mesh.coords(t), mesh.nodes(t));
+    let BoundaryKind::Dirichlet { displacement } = &ctx.scene.boundaries[lift.boundary].kind else {
+        return None;
+    };
+    let edge = Edge::new(&x, lift.local);
+    let xi_c = REF[(lift.local + 2) % 3];
+    let xi_of = |s: f64, t: f64| {
+        let xi_e = edge.xi(s);
+        [
+            xi_c[0] + t * (xi_e[0] - xi_c[0]),
+            xi_c[1] + t * (xi_e[1] - xi_c[1]),
+        ]
+    };
+    let d = |s: f64| -> [f64; 2] {
+        let sp = sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, edge.xi(s));
+        let vv = sp.value_at(nodes, v);
+        std::array::from_fn(|i| displacement[i].eval(sp.x[0], sp.x[1], 0.0) - vv[i])
+    };
+    collapsed_pairing(
+        edge.a,
+        edge.e,
+        edge.c,
+        lift.p,
+        Edge::rule(),
+        d,
+        |s| edge_m(edge.xi(s)),
+        |s, t| div_m(xi_of(s, t)),
+    )
+}
+
+/// The core of [`lift_pairing`] in collapsed coordinates x = c + t(a + s e − c): X for
+/// z = t^p d(s), with m n on E from `m_edge(s)` and div m from `div_m(s, t)`, the outer
+/// integrals by the rule `rule` on [0, 1].
+#[allow(clippy::too_many_arguments)]
+fn collapsed_pairing(
+    a: [f64; 2],
+    e: [f64; 2],
+    c: [f64; 2],
+    p: f64,
+    rule: impl Iterator<Item = (f64, f64)>,
+    d: impl Fn(f64) -> [f64; 2],
+    m_edge: impl Fn(f64) -> [f64; 4],
+    div_m: impl Fn(f64, f64) -> [f64; 2],
+) -> Option<f64> {
+    let len = e[0].hypot(e[1]);
+    // Outward normal of T on E: away from c.
+    let mut n = [e[1] / len, -e[0] / len];
+    if (a[0] - c[0]) * n[0] + (a[1] - c[1]) * n[1] < 0.0 {
+        n = [-n[0], -n[1]];
+    }
+    let ac = [a[0] - c[0], a[1] - c[1]];
+    let dd = (e[0] * ac[1] - e[1] * ac[0]).abs();
+    let k = PAIRING_DEGREE + 1;
+    let nodes_t: Vec<f64> = (0..k)
+        .map(|i| 0.5 - 0.5 * ((2 * i + 1) as f64 * std::f64::consts::PI / (2 * k) as f64).cos())
+        .collect();
+    let moments: Vec<f64> = (0..k).map(|j| 1.0 / (p + 2.0 + j as f64)).collect();
+    // Weights ω_i with Σ_i ω_i g(t_i) = ∫_0^1 t^(p+1) g(t) dt for every g of degree < k:
+    // Σ_i ω_i t_i^j = 1/(p + 2 + j), j < k.
+    let omega = solve_small(
+        k,
+        (0..k)
+            .flat_map(|j| nodes_t.iter().map(move |&ti| ti.powi(j as i32)))
+            .collect(),
+        moments,
+    )?;
+    let mut x_e = 0.0;
+    for (s, w) in rule {
+        let dv = d(s);
+        let m = m_edge(s);
+        let mn = [m[0] * n[0] + m[1] * n[1], m[2] * n[0] + m[3] * n[1]];
+        let mut inner = [0.0; 2];
+        for (&ti, oi) in nodes_t.iter().zip(&omega) {
+            let g = div_m(s, ti);
+            inner[0] += oi * g[0];
+            inner[1] += oi * g[1];
+        }
+        x_e += w
+            * (len * (mn[0] * dv[0] + mn[1] * dv[1]) - dd * (inner[0] * dv[0] + inner[1] * dv[1]));
+    }
+    x_e.is_finite().then_some(x_e)
+}
+
+/// Solves the k × k system A y = b (A row-major) by Gaussian elimination with partial
+/// pivoting. None when singular.
+fn solve_small(k: usize, a: Vec<f64>, b: Vec<f64>) -> Option<Vec<f64>> {
+    let mut m: Vec<Vec<f64>> = (0..k)
+        .map(|j| {
+            let mut row = a[j * k..(j + 1) * k].to_vec();
+            row.push(b[j]);
+            row
+        })
+        .collect();
+    for col in 0..k {
+        let piv = (col..k).max_by(|&x, &y| m[x][col].abs().total_cmp(&m[y][col].abs()))?;
+        if m[piv][col].abs() <= 1e-300 || m[piv][col].is_nan() {
+            return None;
+        }
+        m.swap(col, piv);
+        let pivot_row = m[col].clone();
+        for (r, row) in m.iter_mut().enumerate() {
+            if r != col {
+                let f = row[col] / pivot_row[col];
+                for (x, p) in row[col..].iter_mut().zip(&pivot_row[col..]) {
+                    *x -= f * p;
+                }
+            }
+        }
+    }
+    Some((0..k).map(|i| m[i][k] / m[i][i]).collect())
 }
 
 /// The exponent p and the energy |||z|||²_T of the lifting z = t^p d(s) of the module doc,
@@ -344,6 +505,84 @@ mod tests {
     /// z(x) = t^p d(s) evaluated directly (inverting x = c + t(a + s e − c)), its gradient by
     /// central differences and its energy by a tensor Gauss rule on T: an independent check
     /// of the closed form of `collapsed_lifting`.
+    /// The pairing X = (m, ε(z))_T of the closed form (integration by parts, exact inner
+    /// integral) against a direct tensor Gauss quadrature of m : ∇z in collapsed coordinates,
+    /// with z and ∇z from the collapsed map and m an affine symmetric field (div m constant).
+    #[test]
+    fn lift_pairing_matches_a_direct_quadrature() {
+        let (a, b, c) = ([0.2, 0.1], [1.3, 0.4], [0.5, 1.1]);
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let ac = [a[0] - c[0], a[1] - c[1]];
+        let d = |s: f64| [s * (1.0 - s) * (1.0 + s).exp(), (s * (1.0 - s)).powi(2)];
+        let dp = |s: f64| {
+            let h = 1e-6;
+            let (p, m) = (d(s + h), d(s - h));
+            [(p[0] - m[0]) / (2.0 * h), (p[1] - m[1]) / (2.0 * h)]
+        };
+        // m(x) = M0 + x M1 + y M2 + x² M3 (quadratic: div m affine), symmetric.
+        let m = |x: [f64; 2]| {
+            [
+                1.0 + 2.0 * x[0] - x[1] + 0.5 * x[0] * x[0],
+                0.3 - x[0] + 0.7 * x[1],
+                0.3 - x[0] + 0.7 * x[1],
+                -2.0 + x[0] * x[1] + 0.2 * x[0] * x[0],
+            ]
+        };
+        let div_m = |x: [f64; 2]| [2.0 + x[0] + 0.7, -1.0 + x[0]];
+        let at = |s: f64, t: f64| {
+            [
+                c[0] + t * (a[0] + s * e[0] - c[0]),
+                c[1] + t * (a[1] + s * e[1] - c[1]),
+            ]
+        };
+        for p in [0.6, 1.0, 2.3] {
+            let rule = line_rule_cached(30);
+            let pts = || {
+                rule.points
+                    .iter()
+                    .copied()
+                    .zip(rule.weights.iter().copied())
+            };
+            let closed = collapsed_pairing(
+                a,
+                e,
+                c,
+                p,
+                pts(),
+                d,
+                |s| m(at(s, 1.0)),
+                |s, t| div_m(at(s, t)),
+            )
+            .expect("finite");
+            // ∇z = t^(p−1)(d′(s)(q_y, −q_x) + p d(s)(−e_y, e_x))/D, D = e × (a − c) = −det.
+            let dd = e[0] * ac[1] - e[1] * ac[0];
+            let mut direct = 0.0;
+            // t = u³ (dt = 3u² du) smooths t^p at t = 0 for the Gauss rule.
+            for (s, ws) in pts() {
+                for (u, wu) in pts() {
+                    let (t, wt) = (u * u * u, 3.0 * u * u * wu);
+                    let q = [a[0] + s * e[0] - c[0], a[1] + s * e[1] - c[1]];
+                    let (dv, dpv) = (d(s), dp(s));
+                    let g: [[f64; 2]; 2] = std::array::from_fn(|i| {
+                        let f = t.powf(p - 1.0) / dd;
+                        [
+                            f * (dpv[i] * q[1] - p * dv[i] * e[1]),
+                            f * (-dpv[i] * q[0] + p * dv[i] * e[0]),
+                        ]
+                    });
+                    let mm = m(at(s, t));
+                    let dens =
+                        mm[0] * g[0][0] + mm[1] * g[0][1] + mm[2] * g[1][0] + mm[3] * g[1][1];
+                    direct += ws * wt * dd.abs() * t * dens;
+                }
+            }
+            assert!(
+                (closed - direct).abs() < 1e-9 * direct.abs().max(1e-3),
+                "p = {p}: closed {closed}, direct {direct}"
+            );
+        }
+    }
+
     #[test]
     fn lifting_energy_matches_a_direct_quadrature_of_the_field() {
         let (a, b, c) = ([0.2, 0.1], [1.3, 0.4], [0.5, 1.1]);
