@@ -61,7 +61,8 @@ pub struct BoundTerms {
     /// (`estimate::data`), added like the projection distance.
     #[serde(default)]
     pub dirichlet_lift: f64,
-    /// R = (Σ_T (η_PS,T + |||z|||_T + (η_osc,T + η_as,T + η_tr,T)/√c_min)²)^½: the
+    /// R = (Σ_T (η'_PS,T + (η_osc,T + η_as,T + η_tr,T)/√c_min)²)^½, η'_PS,T ≥ η_PS,T(v + z)
+    /// (η_PS,T + |||z|||_T, or (η_PS,T² + 2X_T + |||z|||²_T)^½ on symmetrised lift cells): the
     /// terms bound the cell's share of |||w|||² against |||w|||_T, so Cauchy–Schwarz over the
     /// cells needs only their sum per cell (docs/design.md §6.2).
     #[serde(default)]

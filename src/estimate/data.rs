@@ -111,6 +111,10 @@ pub fn data_terms(
                 {
                     Some((p, z)) => {
                         out.lift[t] += z;
+                        // z = 0: its pairing is 0 as well.
+                        if z == 0.0 {
+                            continue;
+                        }
                         out.lifts.push(Lift {
                             cell: t,
                             local: be.local as usize,
