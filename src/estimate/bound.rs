@@ -455,7 +455,9 @@ pub fn bound(
                     }
                 }
             }
-            c.osc = (osc_factor * r2.sqrt()).min(split_osc);
+            // Not f64::min: a NaN of the whole-cell term must reach the report, not be replaced.
+            let whole = osc_factor * r2.sqrt();
+            c.osc = if split_osc < whole { split_osc } else { whole };
             c.asym = 0.5 * korn * a2.sqrt();
             let area = crate::geometry::straight_area(verts);
             mscale = mscale.max(sigma_scale * area);
@@ -560,8 +562,12 @@ pub fn bound(
                     .map(|l| data::lift_pairing(ctx, v, l, edge_m, div_m))
                     .sum();
                 if let Some(xz) = pairing {
-                    let direct = (c.ps2 + 2.0 * xz + dt.lift[t] * dt.lift[t]).max(0.0).sqrt();
-                    ps_lifted = ps_lifted.min(direct);
+                    // Round-off can make the square slightly negative; a NaN must not pass.
+                    let square = c.ps2 + 2.0 * xz + dt.lift[t] * dt.lift[t];
+                    let direct = if square < 0.0 { 0.0 } else { square.sqrt() };
+                    if direct < ps_lifted {
+                        ps_lifted = direct;
+                    }
                 }
             }
             c.local = (ps_lifted + (c.osc + c.asym + dt.trace[t]) / c_min.sqrt()).powi(2);

@@ -352,7 +352,7 @@ pub fn relieve(
     }
     let relief = Relief {
         residual: r2.sqrt(),
-        energy: e2.max(0.0).sqrt(),
+        energy: if e2 < 0.0 { 0.0 } else { e2.sqrt() },
     };
     (relief.residual.is_finite() && relief.energy.is_finite()).then_some((field, relief))
 }
