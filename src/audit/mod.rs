@@ -102,6 +102,8 @@ pub struct Options {
     pub displacement: Source,
     /// RT degree k of the reconstruction (0 or 1); default: displacement degree − 1.
     pub degree: Option<usize>,
+    /// Improvement sweeps of the patch stress (default `sweep::DEFAULT_SWEEPS`).
+    pub sweeps: Option<usize>,
     /// Dörfler parameter θ.
     pub mark: Option<f64>,
     /// The time step of a `.pvd` or XDMF collection (default: the last).
@@ -125,6 +127,12 @@ impl Options {
                 )));
             }
             _ => {}
+        }
+        if self.sweeps.is_some() && !matches!(self.stress, Source::Patch | Source::Auto) {
+            return Err(Error::Usage(
+                "--sweeps improves the patch reconstruction: use it with --stress patch or auto"
+                    .into(),
+            ));
         }
         if let Some(theta) = self.mark {
             report::mark::check_theta(theta)?;
@@ -623,6 +631,19 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         }
         _ => (None, None),
     };
+    // Improvement sweeps of the patch stress (design §5.10, "Sweeps"): the same constraints,
+    // a smaller Prager–Synge term.
+    let mut patch = patch;
+    if let Some(r) = patch.as_mut() {
+        let sweeps = opts.sweeps.unwrap_or(reconstruct::sweep::DEFAULT_SWEEPS);
+        if sweeps > 0 {
+            progress.stage("improving the patch stress");
+            r.info.sweeps =
+                reconstruct::sweep::sweep(&ctx, u, &mut r.stress, r.info.weak_symmetry, sweeps);
+            progress.done();
+            lap("improve stress (sweeps)", &mut stages);
+        }
+    }
     let reconstruction = match (&reconstruct_reason, patch) {
         (None, _) => None,
         (Some(_), Some(r)) => {
@@ -815,10 +836,23 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     if let Some(p) = &patch_info {
         notes.push(format!(
             "patch reconstruction: {} vertex patches (up to {} unknowns), {} active contact \
-             constraints{}{}{}{}",
+             constraints{}{}{}{}{}",
             p.patches,
             p.max_unknowns,
             p.active,
+            if p.sweeps.sweeps > 0 {
+                format!(
+                    ", {} improvement sweep{} over {} colours ({} patch solve{} left the stress \
+                     unchanged; docs/design.md §5.10)",
+                    p.sweeps.sweeps,
+                    if p.sweeps.sweeps == 1 { "" } else { "s" },
+                    p.sweeps.colours,
+                    p.sweeps.skipped,
+                    if p.sweeps.skipped == 1 { "" } else { "s" }
+                )
+            } else {
+                String::new()
+            },
             if p.p1_symmetry_dropped > 0 {
                 format!(
                     ", {} solved without the P_1 weak-symmetry rows (infeasible there; \

@@ -85,6 +85,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<ExitCode> {
         stress: source(args.stress),
         displacement: source(args.displacement),
         degree: args.degree,
+        sweeps: args.sweeps,
         mark: args.mark,
         step: super::step_choice(args.step, args.time),
     };

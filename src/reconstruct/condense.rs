@@ -260,7 +260,7 @@ pub fn mean_value(re: &Reference, jac: [[[f64; 2]; 2]; 3], i: usize) -> [f64; 2]
 }
 
 /// A as a 4 × 4 matrix on (τ_xx, τ_xy, τ_yx, τ_yy).
-fn compliance_matrix(el: &Elastic) -> [[f64; 4]; 4] {
+pub fn compliance_matrix(el: &Elastic) -> [[f64; 4]; 4] {
     let mut a = [[0.0; 4]; 4];
     for q in 0..4 {
         let mut e = [0.0; 4];
@@ -275,8 +275,7 @@ fn compliance_matrix(el: &Elastic) -> [[f64; 4]; 4] {
 
 /// The coefficients C^{rr'}_{ab} = (1/det J) Σ_{s,s'} A_(rs),(r's') J_sa J_s'b of module doc's
 /// affine compliance matrix: (Aτ_ri, τ_r'j)_T = Σ_ab C^{rr'}_ab G^{ab}_ij.
-fn affine_coefficients(jac: &Jacobian, el: &Elastic) -> [[[f64; 4]; 2]; 2] {
-    let a = compliance_matrix(el);
+fn affine_coefficients(jac: &Jacobian, a: &[[f64; 4]; 4]) -> [[[f64; 4]; 2]; 2] {
     let jm = jac.matrix;
     let inv = 1.0 / jac.det;
     let mut out = [[[0.0; 4]; 2]; 2];
@@ -310,9 +309,22 @@ pub fn affine_reduced(
     mred: &mut [f64],
     tmc0: &mut [f64],
 ) {
+    affine_reduced_form(re, jac, &compliance_matrix(el), c0, mred, tmc0);
+}
+
+/// [`affine_reduced`] for the pointwise quadratic form `a` on (τ_xx, τ_xy, τ_yx, τ_yy) in place
+/// of the compliance A: Tᵀ M_a T and Tᵀ M_a c₀ with (M_a)_ij = ∫_T a τ_i : τ_j.
+pub fn affine_reduced_form(
+    re: &Reference,
+    jac: &Jacobian,
+    a: &[[f64; 4]; 4],
+    c0: &[f64],
+    mred: &mut [f64],
+    tmc0: &mut [f64],
+) {
     let (nloc, nred) = (re.nloc, re.nred);
     let nr = 2 * nred;
-    let coef = affine_coefficients(jac, el);
+    let coef = affine_coefficients(jac, a);
     // (Tᵀ G^{ab} c₀_r') per ab and r'.
     let mut gc = [[[0.0; MAX_REDUCED]; 2]; 4];
     for (ab, g) in gc.iter_mut().enumerate() {

@@ -12,6 +12,7 @@ pub mod projection;
 pub mod qp;
 pub mod stress;
 pub mod submesh;
+pub mod sweep;
 
 /// The QP solver, a leaf of its own ([`crate::solve`]).
 pub use crate::solve;

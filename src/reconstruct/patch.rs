@@ -81,6 +81,8 @@ pub struct PatchInfo {
     /// (tested with ψ_a e_r, in the space for every degree), the size of the residual otherwise
     /// (sfepy's vertex-only P2 file: see `tolerance::GALERKIN_DEFECT_RELATIVE`).
     pub load_defect: f64,
+    /// What the improvement sweeps did (`sweep.rs`), when they ran.
+    pub sweeps: super::sweep::SweepInfo,
 }
 
 /// The result.
@@ -1522,7 +1524,7 @@ fn row_value(row: &[f64; 2 * MAX_RT_DOFS], c: &[[f64; MAX_RT_DOFS]; 2], nloc: us
 /// −τ_yx), q̂ = ξ − ⅓ and η − ⅓. With φ = Jφ̂/det J and dx = det J dξ the integrand is
 /// (Jφ̂)_s q̂: on a straight cell J is constant and the moments ∫_T̂ q̂ φ̂ of condense.rs give the
 /// rows exactly; on a curved one J is linear in ξ and a rule of degree k + 3 is exact.
-fn higher_symmetry_rows(
+pub(super) fn higher_symmetry_rows(
     re: &condense::Reference,
     order: RtOrder,
     fam: crate::geometry::Family,

@@ -1,0 +1,400 @@
+//! Improvement sweeps of an equilibrated stress (docs/design.md §5.10, "Sweeps").
+//!
+//! The patch reconstruction gives an equilibrated, weakly symmetric σ_h, but each patch only
+//! minimises its own ψ_a-weighted share, so ‖σ_h − Cε(u_h)‖_A, the Prager–Synge term of the
+//! bound, is not the least over the equilibrated stresses. A sweep lowers it by block
+//! coordinate descent over the vertex patches: on ω_a,
+//!
+//! ```text
+//! δ_a = argmin ‖σ_h + δ − Cε(u_h)‖²_A over δ ∈ RT_k(ω_a)² row-wise with
+//!       div δ = 0 on every T ⊂ ω_a (all P_k moments),
+//!       ∫_T as δ q = 0 on every T (q = 1, and q ∈ P_1 with the P_1 weak symmetry),
+//!       δn = 0 on ∂ω_a except on Dirichlet edges (free there),
+//! ```
+//!
+//! and σ_h ← σ_h + δ_a. Every constraint of σ_h is kept: div σ_h + Π_k f = 0, the weak
+//! symmetry, σ_h n on Γ_N, and on Γ_C the normal trace (so the contact sign, the tangential
+//! condition and the complementarity pairing are those of the patch stress). δ = 0 is
+//! admissible, so the term never grows. Two patches share a cell exactly when their vertices
+//! share an edge, so the patches of one colour of a (greedy) vertex colouring share no cell:
+//! they are solved in parallel from the same σ_h and their δ added at once, which is exactly
+//! the sequential (Gauss–Seidel) sweep in colour order. The result does not depend on the
+//! thread count.
+
+use rayon::prelude::*;
+
+use super::condense;
+use super::qp;
+use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
+use crate::field::RtStress;
+use crate::geometry::Shape;
+use crate::geometry::values::sub_point;
+use crate::mesh::NONE;
+use crate::problem::{Condition, Context};
+use crate::quadrature::triangle_rule_cached;
+use crate::tolerance::{SWEEP_ASYMMETRY_WEIGHT, SWEEP_DEFECT};
+
+/// Sweeps run by default (`--sweeps`). Manufactured frictionless family, bound / true error
+/// at n = 4 / 8 / 16 / 32 (docs/design.md §5.10): none P1 2.07 / 1.61 / 1.25 / 1.11, P2 1.95 /
+/// 1.53 / 1.37 / 1.30; one P1 1.70 / 1.37 / 1.15 / 1.06, P2 1.89 / 1.45 / 1.25 / 1.14; a second
+/// gains < 6 % more for as much time again (≈ +70 % of the patch stage per sweep).
+pub const DEFAULT_SWEEPS: usize = 1;
+
+/// What the sweeps did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SweepInfo {
+    pub sweeps: usize,
+    /// Colours of the vertex colouring (patches of one colour share no cell).
+    pub colours: usize,
+    /// Patch solves that left σ_h as it was: curved cells, or a solve that did not lower the
+    /// objective or did not meet its rows (counted once per sweep).
+    pub skipped: usize,
+}
+
+type Coefficients = [[f64; MAX_RT_DOFS]; 2];
+
+/// `sweeps` improvement sweeps of `stress` towards Cε(u) (module doc). `weak_symmetry`: keep
+/// ∫_T as σ_h = 0 (and the P_1 moments with RT_2), as the patch reconstruction imposed.
+pub fn sweep(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    stress: &mut RtStress,
+    weak_symmetry: bool,
+    sweeps: usize,
+) -> SweepInfo {
+    let mesh = ctx.mesh;
+    let npts = mesh.points.len();
+    let mut info = SweepInfo {
+        sweeps,
+        ..Default::default()
+    };
+    if sweeps == 0 || mesh.family.iter().any(|f| f.is_quad()) {
+        return info;
+    }
+    // Cells per vertex (CSR).
+    let mut start = vec![0u32; npts + 1];
+    for t in 0..mesh.len() {
+        for &v in &mesh.nodes(t)[..3] {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..npts {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut cells = vec![(0u32, 0u8); start[npts] as usize];
+    for t in 0..mesh.len() {
+        for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
+            cells[fill[v as usize] as usize] = (t as u32, j as u8);
+            fill[v as usize] += 1;
+        }
+    }
+    let patch = |v: usize| &cells[start[v] as usize..start[v + 1] as usize];
+    // Greedy colouring of the vertex graph: two vertices of one cell get different colours.
+    let mut colour = vec![u16::MAX; npts];
+    let mut used: Vec<bool> = Vec::new();
+    let mut ncol = 0usize;
+    for v in 0..npts {
+        if start[v + 1] == start[v] {
+            continue;
+        }
+        used.iter_mut().for_each(|u| *u = false);
+        for &(t, _) in patch(v) {
+            for &w in &mesh.nodes(t as usize)[..3] {
+                let c = colour[w as usize];
+                if c != u16::MAX {
+                    used[c as usize] = true;
+                }
+            }
+        }
+        let c = used.iter().position(|&u| !u).unwrap_or(used.len());
+        if c == used.len() {
+            used.push(false);
+        }
+        colour[v] = c as u16;
+        ncol = ncol.max(c + 1);
+    }
+    info.colours = ncol;
+    let mut by_colour: Vec<Vec<usize>> = vec![Vec::new(); ncol];
+    for (v, &c) in colour.iter().enumerate() {
+        if c != u16::MAX {
+            by_colour[c as usize].push(v);
+        }
+    }
+    let mut dirichlet = vec![false; ctx.topo.edges.len()];
+    for be in ctx.edges {
+        if matches!(be.condition, Condition::Dirichlet(_)) {
+            dirichlet[be.edge as usize] = true;
+        }
+    }
+    let higher = weak_symmetry && stress.order.k() >= 2;
+    // The objective's pointwise form: the compliance A plus the asymmetry weight
+    // SWEEP_ASYMMETRY_WEIGHT/(2μ) |as τ|² (as τ = τ_xy − τ_yx).
+    let mut form = condense::compliance_matrix(&ctx.elastic);
+    let wk = SWEEP_ASYMMETRY_WEIGHT / (2.0 * ctx.elastic.mu);
+    let asv = [0.0, 1.0, -1.0, 0.0];
+    for p in 0..4 {
+        for q in 0..4 {
+            form[p][q] += wk * asv[p] * asv[q];
+        }
+    }
+    for _ in 0..sweeps {
+        for group in &by_colour {
+            let current = &*stress;
+            let deltas: Vec<Option<Vec<(u32, Coefficients)>>> = group
+                .par_iter()
+                .with_min_len(64)
+                .map(|&v| {
+                    solve(
+                        ctx,
+                        u,
+                        current,
+                        &dirichlet,
+                        &form,
+                        v as u32,
+                        patch(v),
+                        weak_symmetry,
+                        higher,
+                    )
+                })
+                .collect();
+            for d in deltas {
+                match d {
+                    None => info.skipped += 1,
+                    Some(list) => {
+                        for (t, c) in list {
+                            let s = &mut stress.coefficients[t as usize];
+                            for r in 0..2 {
+                                for i in 0..MAX_RT_DOFS {
+                                    s[r][i] += c[r][i];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    info
+}
+
+/// δ_a of one patch (module doc), or None when the patch is left as it is.
+///
+/// The unknowns are condensed as in condense.rs: per cell and row δ = T y with y = (edge
+/// values, free interior values), which meets every divergence row but the flux balance
+/// U₀ᵀD T y = 0, kept as a row with the weak-symmetry rows.
+// Index loops over (row, DOF) mirror the formulas of condense.rs.
+#[allow(clippy::needless_range_loop, clippy::too_many_arguments)]
+fn solve(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    stress: &RtStress,
+    dirichlet: &[bool],
+    form: &[[f64; 4]; 4],
+    vertex: u32,
+    cells: &[(u32, u8)],
+    weak_symmetry: bool,
+    higher: bool,
+) -> Option<Vec<(u32, Coefficients)>> {
+    let mesh = ctx.mesh;
+    let topo = ctx.topo;
+    let order: RtOrder = stress.order;
+    if cells
+        .iter()
+        .any(|&(t, _)| mesh.shape[t as usize] != Shape::Affine)
+    {
+        return None;
+    }
+    let re = condense::reference(order);
+    let (nloc, nedge, nz, nred) = (re.nloc, re.nedge, re.nz, re.nred);
+    let ne = order.edge_dofs();
+    let nr = 2 * nred;
+    // Free edges: radial interior edges and the patch's Dirichlet edges.
+    let mut edges: Vec<(u32, usize)> = Vec::new();
+    let mut nvar = 0usize;
+    for &(t, _) in cells {
+        for l in 0..3 {
+            let e = topo.cell_edges[t as usize][l];
+            if edges.iter().any(|&(x, _)| x == e) {
+                continue;
+            }
+            let [a, b] = topo.edges[e as usize];
+            let interior = topo.edge_cells[e as usize][1] != NONE;
+            let free = if interior {
+                a == vertex || b == vertex
+            } else {
+                dirichlet[e as usize]
+            };
+            if free {
+                edges.push((e, nvar));
+                nvar += 2 * ne;
+            }
+        }
+    }
+    let kernel_base = nvar;
+    nvar += cells.len() * 2 * nz;
+    if nvar == 0 {
+        return None;
+    }
+    // Reduced local unknown (r·nred + y) of each cell → (patch unknown, sign).
+    let mut maps: Vec<[Option<(usize, f64)>; 2 * condense::MAX_REDUCED]> =
+        Vec::with_capacity(cells.len());
+    for (ci, &(t, _)) in cells.iter().enumerate() {
+        let t = t as usize;
+        let mut map = [None; 2 * condense::MAX_REDUCED];
+        for l in 0..3 {
+            let e = topo.cell_edges[t][l];
+            let Some(&(_, base)) = edges.iter().find(|&&(x, _)| x == e) else {
+                continue;
+            };
+            let forward = topo.cell_edge_sign[t][l] > 0;
+            for (loc, slot, sign) in rt::local_to_global_edge(order, l, forward) {
+                for r in 0..2 {
+                    map[r * nred + loc] = Some((base + r * ne + slot, sign));
+                }
+            }
+        }
+        for r in 0..2 {
+            for z in 0..nz {
+                map[r * nred + nedge + z] = Some((kernel_base + (ci * 2 + r) * nz + z, 1.0));
+            }
+        }
+        maps.push(map);
+    }
+    let mut m = vec![0.0; nvar * nvar];
+    let mut b = vec![0.0; nvar];
+    let mut rows: Vec<f64> = Vec::new();
+    let mut mred = [0.0; 4 * condense::MAX_REDUCED * condense::MAX_REDUCED];
+    let p = mesh.degree;
+    let rule = triangle_rule_cached(order.k() + p);
+    for (ci, &(t, _)) in cells.iter().enumerate() {
+        let t = t as usize;
+        let fam = mesh.family[t];
+        let x = mesh.coords(t);
+        let nodes = mesh.nodes(t);
+        let jac = sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, [1.0 / 3.0; 2]).jac;
+        // Tᵀ M T and Tᵀ M c for the current coefficients c of the cell.
+        let c = &stress.coefficients[stress.first[t] as usize];
+        let mut cflat = [0.0; 2 * MAX_RT_DOFS];
+        for r in 0..2 {
+            cflat[r * nloc..(r + 1) * nloc].copy_from_slice(&c[r][..nloc]);
+        }
+        let mut tmc = [0.0; 2 * condense::MAX_REDUCED];
+        condense::affine_reduced_form(re, &jac, form, &cflat, &mut mred[..nr * nr], &mut tmc);
+        // (φ_i, ε(u)) (the compliance pairs Cε(u) with φ as ε(u) does; as ε = 0).
+        let mut bloc = [0.0; 2 * MAX_RT_DOFS];
+        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+            let sp = sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, xi);
+            let w = wq * sp.jac.det;
+            let g = sp.gradient_at(nodes, u);
+            let sym = 0.5 * (g[0][1] + g[1][0]);
+            let eps = [[g[0][0], sym], [sym, g[1][1]]];
+            let (v, _) = rt::piola(order, &sp.jac, xi);
+            for r in 0..2 {
+                for i in 0..nloc {
+                    bloc[r * nloc + i] += w * (v[i][0] * eps[r][0] + v[i][1] * eps[r][1]);
+                }
+            }
+        }
+        let map = &maps[ci];
+        for r in 0..2 {
+            for y in 0..nred {
+                let a = r * nred + y;
+                let Some((va, sa)) = map[a] else { continue };
+                let tb: f64 = (0..nloc)
+                    .map(|i| re.transform[i * nred + y] * bloc[r * nloc + i])
+                    .sum();
+                b[va] += sa * (tb - tmc[a]);
+                for k in 0..nr {
+                    let Some((vk, sk)) = map[k] else { continue };
+                    m[va * nvar + vk] += sa * sk * mred[a * nr + k];
+                }
+            }
+        }
+        let mut push = |g: &[f64]| {
+            let s = rows.len();
+            rows.resize(s + nvar, 0.0);
+            for (a, &ga) in g.iter().enumerate().take(nr) {
+                if ga != 0.0
+                    && let Some((va, sa)) = map[a]
+                {
+                    rows[s + va] += sa * ga;
+                }
+            }
+        };
+        // The flux balances U₀ᵀ D T y_r = 0.
+        let mut g = [0.0; 2 * condense::MAX_REDUCED];
+        for r in 0..2 {
+            for m0 in 0..re.n0 {
+                g.iter_mut().for_each(|v| *v = 0.0);
+                g[r * nred..(r + 1) * nred].copy_from_slice(&re.kept[m0 * nred..(m0 + 1) * nred]);
+                push(&g);
+            }
+        }
+        if weak_symmetry {
+            let jv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]].map(|xi| {
+                sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, xi)
+                    .jac
+                    .matrix
+            });
+            let mut srow = [0.0; 2 * MAX_RT_DOFS];
+            for i in 0..nloc {
+                let [a, bb] = condense::mean_value(re, jv, i);
+                srow[i] = bb;
+                srow[nloc + i] = -a;
+            }
+            let higher_rows = if higher {
+                super::patch::higher_symmetry_rows(re, order, fam, &x[..fam.nodes()], Shape::Affine)
+                    .to_vec()
+            } else {
+                Vec::new()
+            };
+            for srow in std::iter::once(&srow).chain(&higher_rows) {
+                for r in 0..2 {
+                    for y in 0..nred {
+                        g[r * nred + y] = (0..nloc)
+                            .map(|i| srow[r * nloc + i] * re.transform[i * nred + y])
+                            .sum();
+                    }
+                }
+                push(&g);
+            }
+        }
+    }
+    let nrows = rows.len() / nvar;
+    let d = vec![0.0; nrows];
+    let res = qp::solve(nvar, &m, &b, &rows, &d, nrows, &[]);
+    if !res.feasible || res.defect > SWEEP_DEFECT || res.x.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let x = res.x;
+    // The change of the objective is ½δᵀMδ − bᵀδ: kept only if it is a decrease.
+    let mut change = 0.0;
+    for i in 0..nvar {
+        let mi: f64 = (0..nvar).map(|k| m[i * nvar + k] * x[k]).sum();
+        change += 0.5 * x[i] * mi - b[i] * x[i];
+    }
+    if change >= 0.0 || !change.is_finite() {
+        return None;
+    }
+    let out = cells
+        .iter()
+        .zip(&maps)
+        .map(|(&(t, _), map)| {
+            let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            for r in 0..2 {
+                let mut y = [0.0; condense::MAX_REDUCED];
+                for (yy, slot) in y.iter_mut().zip(&map[r * nred..(r + 1) * nred]) {
+                    if let Some((v, sg)) = slot {
+                        *yy = sg * x[*v];
+                    }
+                }
+                for i in 0..nloc {
+                    c[r][i] = (0..nred).map(|k| re.transform[i * nred + k] * y[k]).sum();
+                }
+            }
+            (t, c)
+        })
+        .collect();
+    Some(out)
+}
