@@ -160,16 +160,14 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
             let rate = log2_ratio(&bounds, 1);
             assert!(rate >= 1.5, "P2 bound rate {rate} ({bounds:?})");
         }
-        // Efficiency against the exact solution (n = 4 / 8 / 16 / 32): P1 2.07 / 1.61 / 1.25 /
-        // 1.11, P2 1.95 / 1.53 / 1.37 / 1.30 (hypercircle combination of the lifting and η_PS of
-        // the lifted v' on the lift cells, bubble S ∈ P₄ measured off its fit points,
-        // Laugesen–Siudeja's h/j₁,₁, the oscillation bounded on the depth-2 split); session 23:
-        // P1 3.17 / 2.32 / 1.68 / 1.40, P2 3.96 / 2.72 / 1.79 / 1.60 (P2 then under-read). ≤ 2
-        // on every P2 mesh and from n = 8 on P1, ≤ 1.5 from n = 16; P1 n = 4 is still above 2
-        // (asserted ≤ 2.2, so that a regression there shows).
+        // Efficiency against the exact solution (n = 4 / 8 / 16 / 32): P1 1.70 / 1.37 / 1.15 /
+        // 1.06, P2 1.89 / 1.45 / 1.25 / 1.14 with the default improvement sweep (without it,
+        // session 24: P1 2.07 / 1.61 / 1.25 / 1.11, P2 1.95 / 1.53 / 1.37 / 1.30; session 23:
+        // P1 3.17 / 2.32 / 1.68 / 1.40, P2 3.96 / 2.72 / 1.79 / 1.60). Issue 13 asks ≤ 2 on
+        // every mesh, with ≤ 1.5 as the target: asserted ≤ 2 at n = 4 and ≤ 1.5 from n = 8.
         for i in 0..4 {
             let index = bounds[i] / truths[i];
-            let limit = [if p == 1 { 2.2 } else { 2.0 }, 2.0, 1.5, 1.5][i];
+            let limit = [2.0, 1.5, 1.5, 1.5][i];
             assert!(
                 index <= limit,
                 "P{p} mesh {i}: efficiency index {index} > {limit}"
