@@ -281,18 +281,49 @@ fn solve(
         }
         let mut tmc = [0.0; 2 * condense::MAX_REDUCED];
         condense::affine_reduced_form(re, &jac, form, &cflat, &mut mred[..nr * nr], &mut tmc);
-        // (φ_i, ε(u)) (the compliance pairs Cε(u) with φ as ε(u) does; as ε = 0).
+        // (φ_i, ε(u)) (the compliance pairs Cε(u) with φ as ε(u) does; as ε = 0). On an affine
+        // cell of degree ≤ 2, ε(u) = e₀ + e₁ξ + e₂η and ∫_T φ_i q = J ∫_T̂ φ̂_i q̂ (Piola; the
+        // determinants cancel), so the reference moments `first` give it exactly.
         let mut bloc = [0.0; 2 * MAX_RT_DOFS];
-        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-            let sp = sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, xi);
-            let w = wq * sp.jac.det;
-            let g = sp.gradient_at(nodes, u);
-            let sym = 0.5 * (g[0][1] + g[1][0]);
-            let eps = [[g[0][0], sym], [sym, g[1][1]]];
-            let (v, _) = rt::piola(order, &sp.jac, xi);
-            for r in 0..2 {
-                for i in 0..nloc {
-                    bloc[r * nloc + i] += w * (v[i][0] * eps[r][0] + v[i][1] * eps[r][1]);
+        if p <= 2 {
+            let eps_at = |xi: [f64; 2]| {
+                let g =
+                    sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, xi).gradient_at(nodes, u);
+                let sym = 0.5 * (g[0][1] + g[1][0]);
+                [[g[0][0], sym], [sym, g[1][1]]]
+            };
+            let e0 = eps_at([0.0, 0.0]);
+            let (ex, ey) = (eps_at([1.0, 0.0]), eps_at([0.0, 1.0]));
+            let coef = [
+                e0,
+                std::array::from_fn(|r| std::array::from_fn(|c| ex[r][c] - e0[r][c])),
+                std::array::from_fn(|r| std::array::from_fn(|c| ey[r][c] - e0[r][c])),
+            ];
+            let jm = jac.matrix;
+            for i in 0..nloc {
+                for (m, e) in coef.iter().enumerate() {
+                    let f = re.first[i][m];
+                    let jf = [
+                        jm[0][0] * f[0] + jm[0][1] * f[1],
+                        jm[1][0] * f[0] + jm[1][1] * f[1],
+                    ];
+                    for r in 0..2 {
+                        bloc[r * nloc + i] += jf[0] * e[r][0] + jf[1] * e[r][1];
+                    }
+                }
+            }
+        } else {
+            for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+                let sp = sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, xi);
+                let w = wq * sp.jac.det;
+                let g = sp.gradient_at(nodes, u);
+                let sym = 0.5 * (g[0][1] + g[1][0]);
+                let eps = [[g[0][0], sym], [sym, g[1][1]]];
+                let (v, _) = rt::piola(order, &sp.jac, xi);
+                for r in 0..2 {
+                    for i in 0..nloc {
+                        bloc[r * nloc + i] += w * (v[i][0] * eps[r][0] + v[i][1] * eps[r][1]);
+                    }
                 }
             }
         }
