@@ -18,10 +18,10 @@
 //! graph without a sink can only be balanced up to its mean defect, which is left (and shows
 //! as a patch defect downstream).
 
-use faer::Side;
-use faer::prelude::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
+use faer::{Conj, Par, Side};
 
 use crate::tolerance::{FLOW_ITERATIONS, FLOW_RELATIVE};
 
@@ -267,10 +267,34 @@ fn factor_direct(start: &[usize], adj: &[u32], q: &[M3]) -> Option<Direct> {
             SymbolicSparseColMat::try_new_from_indices(count, count, &pairs).ok()?;
         let mat = SparseColMat::<usize, f64>::new_from_argsort(symbolic.clone(), &argsort, &values)
             .ok()?;
-        let sym = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower).ok()?;
-        let llt = Llt::try_new_with_symbolic(sym, mat.as_ref(), Side::Lower).ok()?;
+        // Sequential on purpose: faer's parallel supernodal factorisation rounds differently
+        // with the thread count, and the patch QPs carry that to the stress (1M bench:
+        // bound.relative 69.0282 with 2 threads against 69.0292 with 1). Sequential, the
+        // factorisation takes 1.9 s and the solves 0.26 s of the 1M patch stage (≈ 31–38 s).
+        let sym = factorize_symbolic_cholesky(
+            symbolic.as_ref(),
+            Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .ok()?;
+        let mut values = vec![0.0; sym.len_val()];
+        let mut mem = MemBuffer::try_new(
+            sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        )
+        .ok()?;
+        sym.factorize_numeric_llt(
+            &mut values,
+            mat.as_ref(),
+            Side::Lower,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .ok()?;
         out.per[c] = Some(out.factors.len());
-        out.factors.push((index, count, llt));
+        out.factors.push((index, count, sym, values));
     }
     Some(out)
 }
@@ -282,14 +306,20 @@ fn solve_direct(f: &Direct, d: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
         let Some(k) = f.per[c] else {
             continue;
         };
-        let (index, count, llt) = &f.factors[k];
+        let (index, count, sym, values) = &f.factors[k];
         let mut rhs = faer::Mat::<f64>::zeros(*count, 1);
         for (v, &iv) in index.iter().enumerate() {
             if iv != usize::MAX {
                 rhs[(iv, 0)] = d[v][c];
             }
         }
-        llt.solve_in_place(&mut rhs);
+        let mut mem = MemBuffer::try_new(sym.solve_in_place_scratch::<f64>(1, Par::Seq)).ok()?;
+        LltRef::<usize, f64>::new(sym, values).solve_in_place_with_conj(
+            Conj::No,
+            rhs.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
         for (v, &iv) in index.iter().enumerate() {
             if iv != usize::MAX {
                 out[v][c] = rhs[(iv, 0)];
@@ -305,7 +335,7 @@ fn solve_direct(f: &Direct, d: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
 /// vertex → unknown maps and sizes.
 struct Direct {
     per: [Option<usize>; 3],
-    factors: Vec<(Vec<usize>, usize, Llt<usize, f64>)>,
+    factors: Vec<(Vec<usize>, usize, SymbolicCholesky<usize>, Vec<f64>)>,
 }
 
 /// What [`potentials_cached`] keeps between the passes of one reconstruction: the sparse
