@@ -294,7 +294,12 @@ fn factor_direct(start: &[usize], adj: &[u32], q: &[M3]) -> Option<Direct> {
         )
         .ok()?;
         out.per[c] = Some(out.factors.len());
-        out.factors.push((index, count, sym, values));
+        out.factors.push(Factor {
+            index,
+            count,
+            symbolic: sym,
+            values,
+        });
     }
     Some(out)
 }
@@ -306,7 +311,12 @@ fn solve_direct(f: &Direct, d: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
         let Some(k) = f.per[c] else {
             continue;
         };
-        let (index, count, sym, values) = &f.factors[k];
+        let Factor {
+            index,
+            count,
+            symbolic: sym,
+            values,
+        } = &f.factors[k];
         let mut rhs = faer::Mat::<f64>::zeros(*count, 1);
         for (v, &iv) in index.iter().enumerate() {
             if iv != usize::MAX {
@@ -335,7 +345,16 @@ fn solve_direct(f: &Direct, d: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
 /// vertex → unknown maps and sizes.
 struct Direct {
     per: [Option<usize>; 3],
-    factors: Vec<(Vec<usize>, usize, SymbolicCholesky<usize>, Vec<f64>)>,
+    factors: Vec<Factor>,
+}
+
+/// One moment's factor: vertex → unknown map (usize::MAX for fixed vertices), size, and the
+/// supernodal or simplicial L of the Dirichlet graph Laplacian.
+struct Factor {
+    index: Vec<usize>,
+    count: usize,
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
 }
 
 /// What [`potentials_cached`] keeps between the passes of one reconstruction: the sparse
