@@ -129,7 +129,7 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "k")]
     pub degree: Option<usize>,
     /// Improvement sweeps of the patch stress over the vertex patches (default 1; 0 keeps the
-    /// patch sum): each lowers the Prager–Synge term and costs about 70 % of the patch stage.
+    /// patch sum): each lowers the Prager–Synge term and costs about 60 % of the patch stage.
     #[arg(long, value_name = "N")]
     pub sweeps: Option<usize>,
     /// Mark cells for refinement by Dörfler's bulk criterion with parameter θ ∈ (0, 1].

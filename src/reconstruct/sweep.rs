@@ -6,7 +6,8 @@
 //! coordinate descent over the vertex patches: on ω_a,
 //!
 //! ```text
-//! δ_a = argmin ‖σ_h + δ − Cε(u_h)‖²_A over δ ∈ RT_k(ω_a)² row-wise with
+//! δ_a = argmin ‖σ_h + δ − Cε(u_h)‖²_A + (w/2μ)‖as(σ_h + δ)‖²
+//!       over δ ∈ RT_k(ω_a)² row-wise with
 //!       div δ = 0 on every T ⊂ ω_a (all P_k moments),
 //!       ∫_T as δ q = 0 on every T (q = 1, and q ∈ P_1 with the P_1 weak symmetry),
 //!       δn = 0 on ∂ω_a except on Dirichlet edges (free there),
@@ -15,7 +16,9 @@
 //! and σ_h ← σ_h + δ_a. Every constraint of σ_h is kept: div σ_h + Π_k f = 0, the weak
 //! symmetry, σ_h n on Γ_N, and on Γ_C the normal trace (so the contact sign, the tangential
 //! condition and the complementarity pairing are those of the patch stress). δ = 0 is
-//! admissible, so the term never grows. Two patches share a cell exactly when their vertices
+//! admissible, so the objective never grows. The weight w = `SWEEP_ASYMMETRY_WEIGHT` prices
+//! the asymmetry, which the bound pays through the symmetric correction of design §5.11 and
+//! the A-norm alone does not see. Two patches share a cell exactly when their vertices
 //! share an edge, so the patches of one colour of a (greedy) vertex colouring share no cell:
 //! they are solved in parallel from the same σ_h and their δ added at once, which is exactly
 //! the sequential (Gauss–Seidel) sweep in colour order. The result does not depend on the
@@ -37,7 +40,7 @@ use crate::tolerance::{SWEEP_ASYMMETRY_WEIGHT, SWEEP_DEFECT};
 /// Sweeps run by default (`--sweeps`). Manufactured frictionless family, bound / true error
 /// at n = 4 / 8 / 16 / 32 (docs/design.md §5.10): none P1 2.07 / 1.61 / 1.25 / 1.11, P2 1.95 /
 /// 1.53 / 1.37 / 1.30; one P1 1.70 / 1.37 / 1.15 / 1.06, P2 1.89 / 1.45 / 1.25 / 1.14; a second
-/// gains < 6 % more for as much time again (≈ +70 % of the patch stage per sweep).
+/// gains < 6 % more for as much time again (each sweep ≈ 0.6 × the patch stage's CPU).
 pub const DEFAULT_SWEEPS: usize = 1;
 
 /// What the sweeps did.
@@ -46,9 +49,9 @@ pub struct SweepInfo {
     pub sweeps: usize,
     /// Colours of the vertex colouring (patches of one colour share no cell).
     pub colours: usize,
-    /// Patch solves that left σ_h as it was: cells other than straight or 6-node curved
-    /// triangles, or a solve that did not lower the
-    /// objective or did not meet its rows (counted once per sweep).
+    /// Patch solves that left σ_h as it was (counted once per sweep): a cell other than a
+    /// straight or 6-node curved triangle, or a solve that did not lower the objective or did
+    /// not meet its rows.
     pub skipped: usize,
 }
 
