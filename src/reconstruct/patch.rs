@@ -219,25 +219,8 @@ pub fn reconstruct(
             && contact_edge_is_open(ctx, u, be, gap_tolerance);
         condition[be.edge as usize] = Some(if open { Condition::Free } else { be.condition });
     }
-    // Vertex patches: (cell, local vertex) per vertex, CSR.
     let npts = mesh.points.len();
-    let mut count = vec![0u32; npts + 1];
-    for t in 0..mesh.len() {
-        for &v in &mesh.nodes(t)[..3] {
-            count[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..npts {
-        count[i + 1] += count[i];
-    }
-    let mut fill = count.clone();
-    let mut members = vec![(0u32, 0u8); count[npts] as usize];
-    for t in 0..mesh.len() {
-        for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
-            members[fill[v as usize] as usize] = (t as u32, j as u8);
-            fill[v as usize] += 1;
-        }
-    }
+    let (count, members) = vertex_patches(mesh);
     // P1 patches with RT_2 keep the weak symmetry too, with the cell shares of their rotation
     // moments as the symmetry rows' right-hand sides (`rotation_shares`): ψ_a ρ₃ is not in the
     // P1 space, so ∫_T as τ_a = 0 would make most P1 patches infeasible.
@@ -461,6 +444,30 @@ pub fn reconstruct(
         },
         info,
     })
+}
+
+/// Vertex patches in CSR form: the cells of vertex v, each with v's local index, are
+/// `members[count[v]..count[v + 1]]`.
+pub(super) fn vertex_patches(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u8)>) {
+    let npts = mesh.points.len();
+    let mut count = vec![0u32; npts + 1];
+    for t in 0..mesh.len() {
+        for &v in &mesh.nodes(t)[..3] {
+            count[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..npts {
+        count[i + 1] += count[i];
+    }
+    let mut fill = count.clone();
+    let mut members = vec![(0u32, 0u8); count[npts] as usize];
+    for t in 0..mesh.len() {
+        for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
+            members[fill[v as usize] as usize] = (t as u32, j as u8);
+            fill[v as usize] += 1;
+        }
+    }
+    (count, members)
 }
 
 struct PatchOut {

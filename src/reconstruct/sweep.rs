@@ -75,24 +75,7 @@ pub fn sweep(
     if sweeps == 0 || mesh.family.iter().any(|f| f.is_quad()) {
         return info;
     }
-    // Cells per vertex (CSR).
-    let mut start = vec![0u32; npts + 1];
-    for t in 0..mesh.len() {
-        for &v in &mesh.nodes(t)[..3] {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..npts {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut cells = vec![(0u32, 0u8); start[npts] as usize];
-    for t in 0..mesh.len() {
-        for (j, &v) in mesh.nodes(t)[..3].iter().enumerate() {
-            cells[fill[v as usize] as usize] = (t as u32, j as u8);
-            fill[v as usize] += 1;
-        }
-    }
+    let (start, cells) = super::patch::vertex_patches(mesh);
     let patch = |v: usize| &cells[start[v] as usize..start[v + 1] as usize];
     // Greedy colouring of the vertex graph: two vertices of one cell get different colours.
     let mut colour = vec![u16::MAX; npts];
