@@ -23,7 +23,19 @@ impl RtStress {
     /// `sub`, whose map has Jacobian `jac_sub` there (the contravariant Piola map).
     #[inline]
     pub fn at(&self, sub: usize, jac_sub: &Jacobian, xi_sub: [f64; 2]) -> ([f64; 4], [f64; 2]) {
-        let (v, d) = rt::piola(self.order, jac_sub, xi_sub);
+        self.at_reference(sub, jac_sub, &rt::reference(self.order, xi_sub))
+    }
+
+    /// [`RtStress::at`] from the reference basis values at the point, already evaluated
+    /// (`rt::reference(self.order, ξ)`, e.g. tabulated at fixed points).
+    #[inline]
+    pub fn at_reference(
+        &self,
+        sub: usize,
+        jac_sub: &Jacobian,
+        reference: &([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS]),
+    ) -> ([f64; 4], [f64; 2]) {
+        let (v, d) = rt::piola_of(reference, jac_sub);
         let c = &self.coefficients[sub];
         let mut s = [0.0; 4];
         let mut div = [0.0; 2];

@@ -399,15 +399,25 @@ pub fn reference_divergence(order: RtOrder, xi: [f64; 2]) -> [f64; MAX_RT_DOFS] 
 }
 
 /// The contravariant Piola map at one point, given the Jacobian there: values J φ̂_j / det J
-/// and divergences div̂ φ̂_j / det J at x(ξ). The only place where the map is written; valid for
-/// straight and curved cells (the divergence identity holds for any smooth map).
+/// and divergences div̂ φ̂_j / det J at x(ξ), valid for straight and curved cells (the
+/// divergence identity holds for any smooth map).
 #[inline]
 pub fn piola(
     order: RtOrder,
     jac: &Jacobian,
     xi: [f64; 2],
 ) -> ([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS]) {
-    let (v, d) = reference(order, xi);
+    piola_of(&reference(order, xi), jac)
+}
+
+/// [`piola`] of reference values already evaluated (`reference(order, ξ)`, e.g. tabulated at
+/// fixed points). The only place where the map is written.
+#[inline]
+pub fn piola_of(
+    reference: &([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS]),
+    jac: &Jacobian,
+) -> ([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS]) {
+    let (v, d) = reference;
     let r = 1.0 / jac.det;
     let [[a, b], [c, e]] = jac.matrix;
     (

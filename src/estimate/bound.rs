@@ -32,7 +32,8 @@ use super::{Admissibility, Terms, failed_checks};
 use super::{bubble, data, lift, subcell, symmetric};
 use crate::field::{RtStress, StressField};
 use crate::geometry::Shape;
-use crate::geometry::values::{rule_degree, sub_point};
+use crate::element::rt::MAX_RT_DOFS;
+use crate::geometry::values::{TriangleTable, rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::{TriangleRule, triangle_rule_cached};
 use crate::tolerance::{
@@ -273,6 +274,37 @@ pub fn bound(
             crate::quadrature::split_rule(10, 2),
         )
     };
+    // The bases at the split points of the symmetric correction, per degree m it may use and
+    // triangle family present (straight cells; `SplitTable`).
+    let split_tables: Vec<SplitTable> = match sigma {
+        StressField::Rt(rt) => {
+            let k = rt.order.k();
+            let mut ms = vec![k + 2];
+            if !f_poly && (k + 2) < bubble::Bubble::DEGREE + 1 {
+                ms.push(bubble::Bubble::DEGREE + 1);
+            }
+            let families: Vec<crate::geometry::Family> = crate::geometry::Family::ALL
+                .into_iter()
+                .filter(|f| !f.is_quad() && mesh.family.contains(f))
+                .collect();
+            let mut tables = Vec::new();
+            for &m in &ms {
+                let points = symmetric::affine_points(m);
+                for &fam in &families {
+                    tables.push(SplitTable {
+                        m,
+                        geometry: TriangleTable::new(fam, &points),
+                        rt: points
+                            .iter()
+                            .map(|&xi| crate::element::rt::reference(rt.order, xi))
+                            .collect(),
+                    });
+                }
+            }
+            tables
+        }
+        StressField::Nodal(_) => Vec::new(),
+    };
     // (sigma_scale: the round-off floor of the moment checks, the stress scale times the
     // cell's area; a zero divergence or asymmetry has nothing else to be measured against.)
     let cells: Vec<Cell> = (0..mesh.len())
@@ -481,10 +513,11 @@ pub fn bound(
                 && (sh == Shape::Affine || (sh == Shape::Curved && fam.nodes() == 6))
             {
                 let first = rt.first[t] as usize;
-                let field = |xi: [f64; 2]| {
-                    let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
-                    let (mut s, _) = rt.at(first, &sp.jac, xi);
+                // (τ + δ, Cε(v)) at a point of the cell.
+                let at = |sp: &crate::geometry::values::SubPoint, s: [f64; 4]| {
+                    let mut s = s;
                     if let Some(b) = &fitted {
+                        let xi = sp.xi;
                         let d = b.value([1.0 - xi[0] - xi[1], xi[0], xi[1]]);
                         s = std::array::from_fn(|k| s[k] + d[k]);
                     }
@@ -492,11 +525,27 @@ pub fn bound(
                     let sym = 0.5 * (gu[0][1] + gu[1][0]);
                     (s, el.stress([gu[0][0], sym, sym, gu[1][1]]))
                 };
+                let field = |xi: [f64; 2]| {
+                    let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+                    at(&sp, rt.at(first, &sp.jac, xi).0)
+                };
                 // The split's rule (degree 2m − 2) must be exact for |τ + δ|²: m ≥ deg δ + 1.
                 let m = if fitted.is_some() {
                     (rt.order.k() + 2).max(bubble::Bubble::DEGREE + 1)
                 } else {
                     rt.order.k() + 2
+                };
+                let table = split_tables
+                    .iter()
+                    .find(|st| st.m == m && st.geometry.family() == fam);
+                // The split's points from the table: the same values as `field`, without
+                // evaluating the bases again.
+                let tabulated = |p: usize, xi: [f64; 2]| match table {
+                    Some(st) => {
+                        let sp = st.geometry.point(&x[..fam.nodes()], p);
+                        at(&sp, rt.at_reference(first, &sp.jac, &st.rt[p]).0)
+                    }
+                    None => field(xi),
                 };
                 // A 6-node cell taken for straight whose mid nodes are off the midpoints (float32
                 // coordinates) has a slightly non-constant J: its RT field is not polynomial to
@@ -504,7 +553,7 @@ pub fn bound(
                 // scale (CalculiX CPE6 Hertz: 30 cells kept their Korn term). The Piola
                 // correction of curved cells takes the map as it is.
                 let fix = if sh == Shape::Affine && !mid_nodes_off(fam, &x[..fam.nodes()]) {
-                    symmetric::correct_affine(verts, m, &el, field)
+                    symmetric::correct_affine(verts, m, &el, tabulated)
                 } else {
                     let n6 = [x[0], x[1], x[2], x[3], x[4], x[5]];
                     symmetric::correct_curved(n6, rt.order.k() + 3, &el, field)
@@ -682,6 +731,15 @@ pub fn bound(
 /// ‖as s‖² have degree 2 max(q, p − 1), the energy 2(p − 1), |div s + f|² 2(q − 1) and the
 /// rotation moment q. (The moment and asymmetry scales integrate absolute values: round-off
 /// floors, not exact integrals.)
+/// The symmetric correction's split points of degree `m` for one triangle family: the Lagrange
+/// shape functions and the RT reference basis there, evaluated once for all cells (they were
+/// a third of the bound's time, evaluated per cell and point).
+struct SplitTable {
+    m: usize,
+    geometry: TriangleTable,
+    rt: Vec<([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS])>,
+}
+
 fn affine_degree(sigma: StressField, p: usize) -> usize {
     let q = match sigma {
         StressField::Rt(rt) => rt.order.k() + 1,

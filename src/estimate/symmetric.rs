@@ -341,6 +341,12 @@ struct AffineReference {
     tests: Vec<f64>,
 }
 
+/// The parent reference points at which [`correct_affine`] of degree `m` evaluates its field,
+/// in the order of its point index (2 ≤ m ≤ [`MAX_AFFINE_DEGREE`]).
+pub fn affine_points(m: usize) -> Vec<[f64; 2]> {
+    affine_reference(m).points.iter().map(|p| p.0).collect()
+}
+
 /// The cached [`AffineReference`] of degree `m` (2 ≤ m ≤ [`MAX_AFFINE_DEGREE`]).
 fn affine_reference(m: usize) -> &'static AffineReference {
     static CACHE: [OnceLock<AffineReference>; MAX_AFFINE_DEGREE + 1] =
@@ -479,11 +485,14 @@ fn build_affine(m: usize) -> AffineReference {
 /// Same minimiser, hence the same result to round-off, as the physical-split assembly (kept
 /// as `correct` for the tests): the constraint rows differ from the physical ones by the
 /// factor D only. `phi` holds the physical φ = J x̂ / D at the free nodes, node-major.
+///
+/// `field(p, ξ)` gives (τ, Cε(v)) at ξ = [`affine_points`]`(m)[p]`; the index lets a caller
+/// read tabulated basis values instead of evaluating them at ξ.
 pub fn correct_affine(
     verts: [[f64; 2]; 3],
     m: usize,
     el: &Elastic,
-    field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]),
+    field: impl Fn(usize, [f64; 2]) -> ([f64; 4], [f64; 4]),
 ) -> Corrected {
     let re = affine_reference(m);
     let (nodes, nq, rows, rank, ps) = (re.nodes, re.nq, re.rows, re.rank, re.per_sub);
@@ -529,7 +538,7 @@ pub fn correct_affine(
     let mut d = vec![0.0; rows];
     let mut asym_before = 0.0;
     for (p, &(xi, wr, i)) in re.points.iter().enumerate() {
-        let (tau, ce) = field(xi);
+        let (tau, ce) = field(p, xi);
         let w = wr * det;
         let g = tau[1] - tau[2];
         asym_before += w * g * g;
@@ -872,7 +881,7 @@ mod tests {
         field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]) + Copy,
     ) -> Corrected {
         let old = correct(v, m, &EL, field);
-        let new = correct_affine(v, m, &EL, field);
+        let new = correct_affine(v, m, &EL, |_, xi| field(xi));
         assert_eq!((old.rank, old.rows), (new.rank, new.rows), "m = {m}");
         let close = |a: f64, b: f64, floor: f64| (a - b).abs() <= 1e-10 * a.abs().max(floor);
         assert!(
@@ -1163,7 +1172,10 @@ mod curved_tests {
         };
         let field = |xi: [f64; 2]| (rt_tau(order, &nodes, &c, xi), ce(xi));
         let m = order.k() + 2;
-        (correct(v, m, &EL, field), correct_affine(v, m, &EL, field))
+        (
+            correct(v, m, &EL, field),
+            correct_affine(v, m, &EL, |_, xi| field(xi)),
+        )
     }
 
     fn assert_same(old: &Corrected, new: &Corrected, what: &str) {
@@ -1238,12 +1250,12 @@ mod curved_tests {
             };
             let ce = |xi: [f64; 2]| [0.7 + xi[1], 0.1, 0.1, 0.2 - xi[0]];
             let m = order.k() + 2;
-            let reference = correct_affine(base, m, &EL, |xi| (tau(xi), ce(xi)));
+            let reference = correct_affine(base, m, &EL, |_, xi| (tau(xi), ce(xi)));
             for cell in [base, sliver] {
-                let at_one = correct_affine(cell, m, &EL, |xi| (tau(xi), ce(xi)));
+                let at_one = correct_affine(cell, m, &EL, |_, xi| (tau(xi), ce(xi)));
                 for s in [1e6, 1e-6] {
                     let v = cell.map(|p| [s * p[0], s * p[1]]);
-                    let c = correct_affine(v, m, &EL, |xi| (tau(xi), ce(xi)));
+                    let c = correct_affine(v, m, &EL, |_, xi| (tau(xi), ce(xi)));
                     assert_eq!(c.rank, reference.rank);
                     assert!(
                         (c.ps2 / (s * s) - at_one.ps2).abs() <= 1e-10 * at_one.ps2,
@@ -1377,7 +1389,7 @@ mod curved_tests {
         let m = order.k() + 2;
         let a = correct([nodes[0], nodes[1], nodes[2]], m, &EL, field);
         let b = correct_curved(nodes, m, &EL, field);
-        let r = correct_affine([nodes[0], nodes[1], nodes[2]], m, &EL, field);
+        let r = correct_affine([nodes[0], nodes[1], nodes[2]], m, &EL, |_, xi| field(xi));
         assert!(
             (r.ps2 - b.ps2).abs() < 1e-11 * r.ps2,
             "{} vs {}",
