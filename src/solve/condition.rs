@@ -26,9 +26,12 @@
 pub const ITERATIONS: usize = 20;
 
 /// Relative change of an eigenvalue estimate under which its iteration stops: the warning needs
-/// the order of magnitude (5 % of κ is far inside it), and each inverse step costs a pair of
-/// triangular solves of the whole system.
-pub const SETTLED: f64 = 5e-2;
+/// the order of magnitude, and each inverse step costs a pair of triangular solves of the
+/// whole system (≈ 0.15 s at 100k RT_1 cells, memory bound). Issue 13, 100k cells, inverse
+/// Lanczos: RT_1 stops after 4 steps at 2.07e5 (5 %: 7 steps, 2.60e5), RT_0 after 3 at 1.54e5
+/// (5 %: 5 steps, 1.72e5); the estimate stays a lower bound of κ, now within 0.8× of the
+/// 5 % one, and the global reconstruction is 0.45 s shorter at 100k RT_1.
+pub const SETTLED: f64 = 0.25;
 
 /// κ(S) above which the report warns: half of double precision's digits may be lost.
 pub const WARN_ABOVE: f64 = 1e8;
@@ -196,10 +199,10 @@ mod tests {
         let t = (std::f64::consts::PI / (n as f64 + 1.0)).cos();
         let want = (1.0 + t) / (1.0 - t);
         let kappa = estimate(apply, solve, &[2.0; 20]);
-        // Lanczos from a smooth start stops once settled to 1 %: the estimate is a lower
-        // bound, here within 10 % (power iteration was within 30 %).
+        // Lanczos from a smooth start stops once a step changes it by less than SETTLED (25 %):
+        // the estimate is a lower bound, within 0.8× of κ (here 0.86×; with 5 %, 0.95×).
         assert!(
-            kappa <= want * (1.0 + 1e-9) && kappa > 0.9 * want,
+            kappa <= want * (1.0 + 1e-9) && kappa > 0.8 * want,
             "{kappa} vs {want}"
         );
         // The Sturm bisection on a known tridiagonal: tridiag(−1, 2, −1) of size 5 has
