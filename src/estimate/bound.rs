@@ -274,36 +274,30 @@ pub fn bound(
             crate::quadrature::split_rule(10, 2),
         )
     };
-    // The bases at the split points of the symmetric correction, per degree m it may use and
-    // triangle family present (straight cells; `SplitTable`).
-    let split_tables: Vec<SplitTable> = match sigma {
+    // The bases at the split points of the symmetric correction, per degree m it may use, and
+    // at the points of the affine cells' rule (`BasisTable`), per triangle family present.
+    let (split_tables, rule_tables) = match sigma {
         StressField::Rt(rt) => {
             let k = rt.order.k();
             let mut ms = vec![k + 2];
             if !f_poly && (k + 2) < bubble::Bubble::DEGREE + 1 {
                 ms.push(bubble::Bubble::DEGREE + 1);
             }
-            let families: Vec<crate::geometry::Family> = crate::geometry::Family::ALL
-                .into_iter()
-                .filter(|f| !f.is_quad() && mesh.family.contains(f))
-                .collect();
-            let mut tables = Vec::new();
-            for &m in &ms {
-                let points = symmetric::affine_points(m);
-                for &fam in &families {
-                    tables.push(SplitTable {
-                        m,
-                        geometry: TriangleTable::new(fam, &points),
-                        rt: points
-                            .iter()
-                            .map(|&xi| crate::element::rt::reference(rt.order, xi))
-                            .collect(),
-                    });
-                }
-            }
-            tables
+            let split = BasisTable::build(mesh, rt.order, &ms, symmetric::affine_points);
+            let rule = if f_poly {
+                let mut degrees: Vec<usize> = [1, 2]
+                    .map(|p| rule_degree(Shape::Affine, affine_degree(sigma, p)))
+                    .to_vec();
+                degrees.dedup();
+                BasisTable::build(mesh, rt.order, &degrees, |d| {
+                    triangle_rule_cached(d).points.clone()
+                })
+            } else {
+                Vec::new()
+            };
+            (split, rule)
         }
-        StressField::Nodal(_) => Vec::new(),
+        StressField::Nodal(_) => (Vec::new(), Vec::new()),
     };
     // (sigma_scale: the round-off floor of the moment checks, the stress scale times the
     // cell's area; a zero divergence or asymmetry has nothing else to be measured against.)
@@ -343,8 +337,17 @@ pub fn bound(
                 && sh == Shape::Affine
                 && !fam.is_quad()
                 && matches!(sigma, StressField::Rt(_));
-            for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-                let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+            // The rule's points from the table on affine cells (same values as sub_point).
+            let table = if sh == Shape::Affine {
+                BasisTable::find(&rule_tables, rule_degree(sh, deg), fam)
+            } else {
+                None
+            };
+            for (p, (&xi, &wq)) in rule.points.iter().zip(&rule.weights).enumerate() {
+                let sp = match table {
+                    Some(tb) => tb.geometry.point(&x[..fam.nodes()], p),
+                    None => sub_point(fam, &x[..fam.nodes()], sh, 0, xi),
+                };
                 let w = wq * sp.jac.det;
                 let gu = sp.gradient_at(nodes, v);
                 let (s, d) = match sigma {
@@ -360,7 +363,10 @@ pub fn bound(
                         }
                         (sn, dn)
                     }
-                    StressField::Rt(rt) => rt.at(rt.first[t] as usize, &sp.jac, xi),
+                    StressField::Rt(rt) => match table {
+                        Some(tb) => rt.at_reference(rt.first[t] as usize, &sp.jac, &tb.rt[p]),
+                        None => rt.at(rt.first[t] as usize, &sp.jac, xi),
+                    },
                 };
                 let sym = 0.5 * (gu[0][1] + gu[1][0]);
                 let eps = [gu[0][0], sym, sym, gu[1][1]];
@@ -535,9 +541,7 @@ pub fn bound(
                 } else {
                     rt.order.k() + 2
                 };
-                let table = split_tables
-                    .iter()
-                    .find(|st| st.m == m && st.geometry.family() == fam);
+                let table = BasisTable::find(&split_tables, m, fam);
                 // The split's points from the table: the same values as `field`, without
                 // evaluating the bases again.
                 let tabulated = |p: usize, xi: [f64; 2]| match table {
@@ -731,13 +735,50 @@ pub fn bound(
 /// ‖as s‖² have degree 2 max(q, p − 1), the energy 2(p − 1), |div s + f|² 2(q − 1) and the
 /// rotation moment q. (The moment and asymmetry scales integrate absolute values: round-off
 /// floors, not exact integrals.)
-/// The symmetric correction's split points of degree `m` for one triangle family: the Lagrange
-/// shape functions and the RT reference basis there, evaluated once for all cells (they were
-/// a third of the bound's time, evaluated per cell and point).
-struct SplitTable {
+/// Fixed reference points of degree `m` for one triangle family (the symmetric correction's
+/// split points, or the cell rule of that degree): the Lagrange shape functions and the RT
+/// reference basis there, evaluated once for all cells (evaluated per cell and point, they
+/// were most of the bound's time).
+struct BasisTable {
     m: usize,
     geometry: TriangleTable,
     rt: Vec<([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS])>,
+}
+
+impl BasisTable {
+    /// The tables of `points(m)` for each m in `degrees` and each triangle family of `mesh`.
+    fn build(
+        mesh: &crate::mesh::Mesh,
+        order: crate::element::rt::RtOrder,
+        degrees: &[usize],
+        points: impl Fn(usize) -> Vec<[f64; 2]>,
+    ) -> Vec<BasisTable> {
+        let families: Vec<crate::geometry::Family> = crate::geometry::Family::ALL
+            .into_iter()
+            .filter(|f| !f.is_quad() && mesh.family.contains(f))
+            .collect();
+        let mut tables = Vec::new();
+        for &m in degrees {
+            let pts = points(m);
+            for &fam in &families {
+                tables.push(BasisTable {
+                    m,
+                    geometry: TriangleTable::new(fam, &pts),
+                    rt: pts
+                        .iter()
+                        .map(|&xi| crate::element::rt::reference(order, xi))
+                        .collect(),
+                });
+            }
+        }
+        tables
+    }
+
+    fn find(tables: &[BasisTable], m: usize, fam: crate::geometry::Family) -> Option<&BasisTable> {
+        tables
+            .iter()
+            .find(|t| t.m == m && t.geometry.family() == fam)
+    }
 }
 
 fn affine_degree(sigma: StressField, p: usize) -> usize {
