@@ -30,9 +30,9 @@ use serde::Serialize;
 
 use super::{Admissibility, Terms, failed_checks};
 use super::{bubble, data, lift, subcell, symmetric};
+use crate::element::rt::MAX_RT_DOFS;
 use crate::field::{RtStress, StressField};
 use crate::geometry::Shape;
-use crate::element::rt::MAX_RT_DOFS;
 use crate::geometry::values::{TriangleTable, rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::{TriangleRule, triangle_rule_cached};

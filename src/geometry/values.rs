@@ -546,7 +546,10 @@ pub struct TriangleTable {
 impl TriangleTable {
     /// The table of `family` (a triangle family) at `points`.
     pub fn new(family: Family, points: &[[f64; 2]]) -> TriangleTable {
-        assert!(!family.is_quad(), "a triangle table of a quadrilateral family");
+        assert!(
+            !family.is_quad(),
+            "a triangle table of a quadrilateral family"
+        );
         TriangleTable {
             family,
             points: points.to_vec(),
