@@ -441,78 +441,60 @@ fn reconstruct_with(
         }
         condense_element(nl, &kloc, &bloc, &kept, &interior).ok_or(t)
     };
-    // Element matrices in parallel, a chunk of cells at a time (bounded memory). The scatter
-    // into the shared K is serial; it runs beside the next chunk's element matrices (issue 13,
-    // 100k RT_1 cells: the scatter takes 0.43 s, the element matrices 0.6 s of CPU; run one
-    // after the other they took 0.7 s of wall time, now 0.58 s). The order of the additions
-    // into K is unchanged, so K is the same to the bit.
-    let chunks: Vec<(usize, usize)> = (0..ntri)
-        .step_by(ELEMENT_CHUNK)
-        .map(|first| (first, (first + ELEMENT_CHUNK).min(ntri)))
-        .collect();
-    let compute = |(first, last): (usize, usize)| -> Vec<Result<ElementSystem, usize>> {
-        (first..last).into_par_iter().map(element).collect()
-    };
-    let mut pending = chunks.first().map(|&c| compute(c));
-    for (ci, &(first, last)) in chunks.iter().enumerate() {
-        let elements = pending.take().unwrap_or_default();
-        let next = chunks.get(ci + 1).copied();
-        let (scattered, computed) = rayon::join(
-            || -> Result<(), String> {
-                for (t, el) in (first..last).zip(elements) {
-                    let (kloc, bloc, rec) = el.map_err(|t| {
-                        format!(
-                            "the reconstruction matrix is not positive definite (the interior block of \
-                             cell {t}): the field is not determined by the functional"
-                        )
-                    })?;
-                    recovery[t * stride..(t + 1) * stride].copy_from_slice(&rec);
-                    // Scatter.
-                    let maps: Vec<[(usize, f64); 2]> = kept
-                        .iter()
-                        .map(|&a| map_local(t, a / nloc, a % nloc))
-                        .collect();
-                    for a in 0..nk {
-                        for &(ga, ca) in &maps[a] {
-                            if ga == usize::MAX || ca == 0.0 {
+    // Element matrices in parallel, a chunk of cells at a time (bounded memory); the scatter
+    // into the shared K stays serial.
+    for first in (0..ntri).step_by(ELEMENT_CHUNK) {
+        let last = (first + ELEMENT_CHUNK).min(ntri);
+        let elements: Vec<Result<ElementSystem, usize>> =
+            (first..last).into_par_iter().map(element).collect();
+        for (t, el) in (first..last).zip(elements) {
+            let (kloc, bloc, rec) = el.map_err(|t| {
+                format!(
+                    "the reconstruction matrix is not positive definite (the interior block of \
+                     cell {t}): the field is not determined by the functional"
+                )
+            })?;
+            recovery[t * stride..(t + 1) * stride].copy_from_slice(&rec);
+            // Scatter.
+            let maps: Vec<[(usize, f64); 2]> = kept
+                .iter()
+                .map(|&a| map_local(t, a / nloc, a % nloc))
+                .collect();
+            for a in 0..nk {
+                for &(ga, ca) in &maps[a] {
+                    if ga == usize::MAX || ca == 0.0 {
+                        continue;
+                    }
+                    if fixed[ga].is_none() {
+                        b[ga] += ca * bloc[a];
+                    }
+                    for c in 0..nk {
+                        let kv = if c <= a {
+                            kloc[a * nk + c]
+                        } else {
+                            kloc[c * nk + a]
+                        };
+                        for &(gc, cc) in &maps[c] {
+                            if gc == usize::MAX || cc == 0.0 {
                                 continue;
                             }
-                            if fixed[ga].is_none() {
-                                b[ga] += ca * bloc[a];
-                            }
-                            for c in 0..nk {
-                                let kv = if c <= a {
-                                    kloc[a * nk + c]
-                                } else {
-                                    kloc[c * nk + a]
-                                };
-                                for &(gc, cc) in &maps[c] {
-                                    if gc == usize::MAX || cc == 0.0 {
-                                        continue;
-                                    }
-                                    let v = ca * cc * kv;
-                                    match (fixed[ga], fixed[gc]) {
-                                        // The guard adds the entry; it fails only if the pattern lacks it.
-                                        (None, None) if ga >= gc && !k.add(ga, gc, v) => {
-                                            return Err(format!(
-                                                "internal: unknowns {ga} and {gc} of one cell are not \
-                                                 coupled in the pattern"
-                                            ));
-                                        }
-                                        (None, Some(val)) => b[ga] -= v * val,
-                                        _ => {}
-                                    }
+                            let v = ca * cc * kv;
+                            match (fixed[ga], fixed[gc]) {
+                                // The guard adds the entry; it fails only if the pattern lacks it.
+                                (None, None) if ga >= gc && !k.add(ga, gc, v) => {
+                                    return Err(format!(
+                                        "internal: unknowns {ga} and {gc} of one cell are not \
+                                         coupled in the pattern"
+                                    ));
                                 }
+                                (None, Some(val)) => b[ga] -= v * val,
+                                _ => {}
                             }
                         }
                     }
                 }
-                Ok(())
-            },
-            || next.map(compute),
-        );
-        scattered?;
-        pending = computed;
+            }
+        }
     }
     for (g, f) in fixed.iter().enumerate() {
         if let Some(v) = f {
