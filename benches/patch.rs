@@ -249,6 +249,9 @@ fn child(spec: &str) {
             "F": f.total, "guaranteed": b.guaranteed, "relative": b.relative,
             "energy_error": b.energy_error,
             "symmetrised_cells": b.terms.as_ref().map(|t| t.symmetrised_cells),
+            "oscillation": b.terms.as_ref().map(|t| t.oscillation),
+            "traction": b.terms.as_ref().map(|t| t.traction),
+            "energy": b.energy,
             "failed": b.failed_hypotheses,
         });
     }
