@@ -566,20 +566,31 @@ impl TriangleTable {
     /// Jacobian is the cell map's at ξ (sub_map is the identity).
     #[inline]
     pub fn point(&self, x: &[[f64; 2]], p: usize) -> SubPoint {
-        let n = self.family.nodes();
-        let (phi, g) = &self.shapes[p];
-        let jac = jacobian(x, n, g);
-        let mut grad = [[0.0; 2]; MAX_NODES];
-        for i in 0..n {
-            grad[i] = jac.physical_gradient(g[i]);
-        }
-        SubPoint {
-            x: position(x, n, phi),
-            xi: self.points[p],
-            jac,
-            phi: *phi,
-            grad,
-        }
+        triangle_point(self.family, x, self.points[p], &self.shapes[p])
+    }
+}
+
+/// The geometry of a triangle cell (its own sub-triangle) at ξ from the family's shape values
+/// and reference gradients there: [`sub_point`] of a triangle and [`TriangleTable::point`].
+#[inline]
+fn triangle_point(
+    family: Family,
+    x: &[[f64; 2]],
+    xi: [f64; 2],
+    (phi, g): &([f64; MAX_NODES], [[f64; 2]; MAX_NODES]),
+) -> SubPoint {
+    let n = family.nodes();
+    let jac = jacobian(x, n, g);
+    let mut grad = [[0.0; 2]; MAX_NODES];
+    for i in 0..n {
+        grad[i] = jac.physical_gradient(g[i]);
+    }
+    SubPoint {
+        x: position(x, n, phi),
+        xi,
+        jac,
+        phi: *phi,
+        grad,
     }
 }
 
@@ -593,6 +604,11 @@ pub fn sub_point(
     k: usize,
     xi_sub: [f64; 2],
 ) -> SubPoint {
+    // A triangle is its own sub-triangle: one evaluation of the shape functions serves the
+    // Piola Jacobian and the parent's gradients.
+    if !family.is_quad() {
+        return triangle_point(family, x, xi_sub, &family.shape(xi_sub));
+    }
     let n = family.nodes();
     let (sf, y) = sub_nodes(family, x, shape == Shape::Curved, k);
     let (sphi, sg) = sf.shape(xi_sub);
