@@ -39,9 +39,13 @@ pub const WARN_ABOVE: f64 = 1e8;
 /// Estimates κ(D^{-1/2} K D^{-1/2}) from `apply` (y = K x), `solve` (x = K⁻¹ b with the
 /// existing factor) and the diagonal of K. Returns `f64::INFINITY` when a solve fails or the
 /// smallest eigenvalue estimate is not positive.
+///
+/// The two iterations run as a `rayon::join`, the inverse one first: the caller runs this
+/// beside the active-set solve, and the thread that finishes that takes the cheap λ_max
+/// iteration (≈ 0.1 s at 100k RT_1 cells, against ≈ 0.5 s for the inverse steps).
 pub fn estimate(
-    apply: impl Fn(&[f64]) -> Vec<f64>,
-    solve: impl Fn(&[f64]) -> Option<Vec<f64>>,
+    apply: impl Fn(&[f64]) -> Vec<f64> + Sync,
+    solve: impl Fn(&[f64]) -> Option<Vec<f64>> + Sync,
     diag: &[f64],
 ) -> f64 {
     let n = diag.len();
@@ -54,14 +58,20 @@ pub fn estimate(
     let root: Vec<f64> = diag.iter().map(|d| d.sqrt()).collect();
     let start: Vec<f64> = (0..n).map(|i| 1.0 + 0.5 * (i as f64 * 0.7).sin()).collect();
     // S v = D^{-1/2} K D^{-1/2} v and S⁻¹ v = D^{1/2} K⁻¹ D^{1/2} v.
-    let lambda_max = lanczos_max(&start, |v| {
-        let x: Vec<f64> = v.iter().zip(&root).map(|(a, r)| a / r).collect();
-        Some(apply(&x).iter().zip(&root).map(|(a, r)| a / r).collect())
-    });
-    let inverse_max = lanczos_max(&start, |v| {
-        let b: Vec<f64> = v.iter().zip(&root).map(|(a, r)| a * r).collect();
-        solve(&b).map(|x| x.iter().zip(&root).map(|(a, r)| a * r).collect())
-    });
+    let (inverse_max, lambda_max) = rayon::join(
+        || {
+            lanczos_max(&start, |v| {
+                let b: Vec<f64> = v.iter().zip(&root).map(|(a, r)| a * r).collect();
+                solve(&b).map(|x| x.iter().zip(&root).map(|(a, r)| a * r).collect())
+            })
+        },
+        || {
+            lanczos_max(&start, |v| {
+                let x: Vec<f64> = v.iter().zip(&root).map(|(a, r)| a / r).collect();
+                Some(apply(&x).iter().zip(&root).map(|(a, r)| a / r).collect())
+            })
+        },
+    );
     match (lambda_max, inverse_max) {
         (Some(l), Some(i)) if l > 0.0 && l.is_finite() && i > 0.0 && i.is_finite() => {
             (l * i).max(1.0)

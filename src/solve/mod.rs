@@ -317,18 +317,22 @@ pub fn solve_bound_qp_csc(
     // RT_1 when run first); its verdict is read before the solution is returned.
     let (kappa, solved) = rayon::join(
         || {
-            let solve_error = std::cell::RefCell::new(None);
+            let solve_error = std::sync::Mutex::new(None);
             let kappa = condition::estimate(
                 |v| k.apply(v),
                 |r| {
                     factor
                         .solve(r)
-                        .map_err(|e| *solve_error.borrow_mut() = Some(e))
+                        .map_err(|e| {
+                            if let Ok(mut slot) = solve_error.lock() {
+                                *slot = Some(e);
+                            }
+                        })
                         .ok()
                 },
                 &diag,
             );
-            match solve_error.into_inner() {
+            match solve_error.into_inner().ok().flatten() {
                 Some(e) => Err(e),
                 None => Ok(kappa),
             }
