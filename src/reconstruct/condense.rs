@@ -56,7 +56,7 @@ use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 use crate::geometry::map::Jacobian;
 use crate::material::Elastic;
 use crate::quadrature::triangle_rule;
-use crate::tolerance::CONDENSATION_RANK;
+use crate::tolerance::{ASYMMETRY_WEIGHT, CONDENSATION_RANK};
 
 /// Largest number of edge DOFs per row of a cell (RT_2: 3 × 3), of reduced unknowns per row
 /// (RT_2: 9 edge values + 1 kernel value) and of test moments per row (P_2: 6).
@@ -271,6 +271,24 @@ pub fn compliance_matrix(el: &Elastic) -> [[f64; 4]; 4] {
         }
     }
     a
+}
+
+/// The pointwise form of the patch and sweep objectives on (τ_xx, τ_xy, τ_yx, τ_yy): the
+/// compliance A, plus w/(2μ)(τ_xy − τ_yx)² with w = [`ASYMMETRY_WEIGHT`] when the weak symmetry
+/// is imposed (design §5.10: the bound pays for as σ_h through the symmetric correction, which
+/// A alone does not see).
+pub fn objective_form(el: &Elastic, weak_symmetry: bool) -> [[f64; 4]; 4] {
+    let mut form = compliance_matrix(el);
+    if weak_symmetry {
+        let wk = ASYMMETRY_WEIGHT / (2.0 * el.mu);
+        let asv = [0.0, 1.0, -1.0, 0.0];
+        for p in 0..4 {
+            for q in 0..4 {
+                form[p][q] += wk * asv[p] * asv[q];
+            }
+        }
+    }
+    form
 }
 
 /// The coefficients C^{rr'}_{ab} = (1/det J) Σ_{s,s'} A_(rs),(r's') J_sa J_s'b of module doc's

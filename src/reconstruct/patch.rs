@@ -247,6 +247,8 @@ pub fn reconstruct(
         .max(f64::MIN_POSITIVE);
     let recovered = recovered_strain(mesh, u);
     let setup = PatchSetup {
+        prior: None,
+        form: condense::objective_form(&ctx.elastic, weak_symmetry),
         order,
         condition: &condition,
         weak_symmetry,
@@ -256,12 +258,14 @@ pub fn reconstruct(
     };
     // `balance_only`: patches whose balance is independent of the solution only give it (the
     // flows need nothing else), and are solved once, with their final loads, after the passes.
-    let solve_one = |i: usize, extra: &[Extra], balance_only: bool| -> PatchOut {
+    let solve_with = |setup: &PatchSetup, i: usize, extra: &[Extra], balance_only: bool| {
         let v = vertices[i];
         let range = count[v] as usize..count[v + 1] as usize;
         let ex = extra.get(range.clone()).unwrap_or(&[]);
-        solve_patch(ctx, u, &setup, v as u32, &members[range], ex, balance_only)
+        solve_patch(ctx, u, setup, v as u32, &members[range], ex, balance_only)
     };
+    let solve_one =
+        |i: usize, extra: &[Extra], balance_only: bool| solve_with(&setup, i, extra, balance_only);
     // The flow loads, one per patch and cell (the slots of `members`), summed over the passes;
     // on P1 with the weak symmetry they start with the cell shares of the rotation moments.
     let mut extra: Vec<Extra> = vec![[0.0; 4]; members.len()];
@@ -392,29 +396,50 @@ pub fn reconstruct(
         }
         passes += 1;
     }
-    // The patches that only gave their balance, solved with their final loads, in chunks whose
+    // Every patch solved with the final loads, colour by colour of a vertex colouring (patches
+    // of one colour share no cell, so each colour runs in parallel and the result does not
+    // depend on the thread count), each against the stress of the colours before it: patch a
+    // minimises ‖σ_prior + τ − Ψ_a Cε*‖² with Ψ_a the sum of the hats of the vertices done and
+    // of a (design §5.10, "Colour-ordered solves"). The first colour is the plain ψ_a problem;
+    // the last sees the whole sum, as a sweep step does. Per colour in chunks whose
     // coefficients are summed at once (a million patches' cell lists would be ~0.7 GiB).
     let balanced = passes > 0;
     let mut coefficients = vec![[[0.0; MAX_RT_DOFS]; 2]; mesh.len()];
-    let add = |coefficients: &mut Vec<[[f64; MAX_RT_DOFS]; 2]>, o: &mut PatchOut| {
-        for (t, c) in std::mem::take(&mut o.cells) {
-            for r in 0..2 {
-                for i in 0..MAX_RT_DOFS {
-                    coefficients[t as usize][r][i] += c[r][i];
+    let mut done = vec![false; npts];
+    let mut index = vec![usize::MAX; npts];
+    for (i, &v) in vertices.iter().enumerate() {
+        index[v] = i;
+    }
+    for group in super::sweep::colour_vertices(mesh, &count, &members) {
+        let ids: Vec<usize> = group.iter().map(|&v| index[v]).collect();
+        for chunk in ids.chunks(FINAL_CHUNK) {
+            let finals: Vec<PatchOut> = {
+                let with_prior = PatchSetup {
+                    prior: Some(Prior {
+                        coefficients: &coefficients,
+                        done: &done,
+                    }),
+                    ..setup
+                };
+                chunk
+                    .par_iter()
+                    .with_min_len(64)
+                    .map(|&i| solve_with(&with_prior, i, &extra, false))
+                    .collect()
+            };
+            for (&i, mut o) in chunk.iter().zip(finals) {
+                for (t, c) in std::mem::take(&mut o.cells) {
+                    for r in 0..2 {
+                        for j in 0..MAX_RT_DOFS {
+                            coefficients[t as usize][r][j] += c[r][j];
+                        }
+                    }
                 }
+                outs[i] = o;
             }
         }
-    };
-    let pending: Vec<usize> = (0..outs.len()).filter(|&i| !outs[i].solved).collect();
-    for chunk in pending.chunks(FINAL_CHUNK) {
-        let finals: Vec<PatchOut> = chunk
-            .par_iter()
-            .with_min_len(64)
-            .map(|&i| solve_one(i, &extra, false))
-            .collect();
-        for (&i, mut o) in chunk.iter().zip(finals) {
-            add(&mut coefficients, &mut o);
-            outs[i] = o;
+        for &v in &group {
+            done[v] = true;
         }
     }
     let mut info = PatchInfo {
@@ -424,8 +449,7 @@ pub fn reconstruct(
         load_defect,
         ..Default::default()
     };
-    for mut o in outs {
-        add(&mut coefficients, &mut o);
+    for o in outs {
         info.max_unknowns = info.max_unknowns.max(o.unknowns);
         info.active += o.active;
         info.unsettled += usize::from(!o.settled);
@@ -496,8 +520,23 @@ struct PatchOut {
     cannot_take: flow::M3,
 }
 
+/// The stress of the patches solved before this one, and which vertices those were
+/// (`reconstruct`'s colour-ordered final solves).
+#[derive(Clone, Copy)]
+struct Prior<'a> {
+    coefficients: &'a [[[f64; MAX_RT_DOFS]; 2]],
+    done: &'a [bool],
+}
+
 /// What every patch shares.
+#[derive(Clone, Copy)]
 struct PatchSetup<'a> {
+    /// With the patches solved so far: the patch minimises ‖σ_prior + τ − Ψ Cε*‖² (the
+    /// norm of `form`), Ψ the sum of the hat functions of those vertices and of its own;
+    /// without, ‖τ − ψ_a Cε*‖².
+    prior: Option<Prior<'a>>,
+    /// The objective's pointwise form (`condense::objective_form`).
+    form: [[f64; 4]; 4],
     order: RtOrder,
     condition: &'a [Option<Condition>],
     weak_symmetry: bool,
@@ -915,10 +954,17 @@ fn solve_patch_rows(
                 }
                 [e[0], e[1], e[1], e[2]]
             };
+            let weight = match setup.prior {
+                None => psi,
+                Some(pr) => (0..3)
+                    .filter(|&jj| jj == j || pr.done[nodes[jj] as usize])
+                    .map(|jj| lam[jj])
+                    .sum(),
+            };
             for r in 0..2 {
                 for i in 0..nloc {
                     bloc[r * nloc + i] +=
-                        w * psi * (v[i][0] * eps[2 * r] + v[i][1] * eps[2 * r + 1]);
+                        w * weight * (v[i][0] * eps[2 * r] + v[i][1] * eps[2 * r + 1]);
                 }
             }
             if !affine {
@@ -929,7 +975,7 @@ fn solve_patch_rows(
                         let a = r * nloc + i;
                         tau[a][2 * r] = v[i][0];
                         tau[a][2 * r + 1] = v[i][1];
-                        at[a] = el.compliance(tau[a]);
+                        at[a] = std::array::from_fn(|p| dot4(setup.form[p], tau[a]));
                     }
                 }
                 for a in 0..nl {
@@ -1019,14 +1065,32 @@ fn solve_patch_rows(
             parts.push(part);
             continue;
         }
-        // Reduced local problem: Tᵀ M T and Tᵀ(b − M c₀), T block-diagonal over the rows.
+        // Reduced local problem: Tᵀ M T and Tᵀ(b − M c₀), T block-diagonal over the rows; with
+        // the prior stress c_p on the cell, Tᵀ(b − M(c₀ + c_p)).
+        let mut shifted = [0.0; 2 * MAX_RT_DOFS];
+        shifted[..nl].copy_from_slice(&part.c0[..nl]);
+        if let Some(pr) = setup.prior {
+            let cp = &pr.coefficients[t];
+            for r in 0..2 {
+                for i in 0..nloc {
+                    shifted[r * nloc + i] += cp[r][i];
+                }
+            }
+        }
         let mut bred = [0.0; 2 * MAX_REDUCED];
         if affine {
             // Within the straightness tolerance of `Shape::Affine`, the Jacobian at the
             // centroid: the mass matrix only chooses among the equilibrated stresses.
             let jac = sub_point(fam, &x[..fam.nodes()], sh, 0, [1.0 / 3.0; 2]).jac;
             let mut tmc0 = [0.0; 2 * MAX_REDUCED];
-            condense::affine_reduced(re, &jac, &el, &part.c0[..nl], &mut mred, &mut tmc0);
+            condense::affine_reduced_form(
+                re,
+                &jac,
+                &setup.form,
+                &shifted[..nl],
+                &mut mred,
+                &mut tmc0,
+            );
             for r in 0..2 {
                 for y in 0..nred {
                     let tb: f64 = (0..nloc)
@@ -1056,7 +1120,7 @@ fn solve_patch_rows(
                 let ma = &mloc[a * nl..(a + 1) * nl];
                 rb[a] = bloc[a]
                     - ma.iter()
-                        .zip(&part.c0[..nl])
+                        .zip(&shifted[..nl])
                         .map(|(p, q)| p * q)
                         .sum::<f64>();
             }

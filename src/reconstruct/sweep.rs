@@ -16,7 +16,7 @@
 //! and σ_h ← σ_h + δ_a. Every constraint of σ_h is kept: div σ_h + Π_k f = 0, the weak
 //! symmetry, σ_h n on Γ_N, and on Γ_C the normal trace (so the contact sign, the tangential
 //! condition and the complementarity pairing are those of the patch stress). δ = 0 is
-//! admissible, so the objective never grows. The weight w = `SWEEP_ASYMMETRY_WEIGHT` prices
+//! admissible, so the objective never grows. The weight w = `ASYMMETRY_WEIGHT` prices
 //! the asymmetry, which the bound pays through the symmetric correction of design §5.11 and
 //! the A-norm alone does not see. Two patches share a cell exactly when their vertices
 //! share an edge, so the patches of one colour of a (greedy) vertex colouring share no cell:
@@ -32,16 +32,20 @@ use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 use crate::field::RtStress;
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
-use crate::mesh::NONE;
+use crate::mesh::{Mesh, NONE};
 use crate::problem::{Condition, Context};
 use crate::quadrature::triangle_rule_cached;
-use crate::tolerance::{SWEEP_ASYMMETRY_WEIGHT, SWEEP_DEFECT};
+use crate::tolerance::SWEEP_DEFECT;
 
-/// Sweeps run by default (`--sweeps`). Manufactured frictionless family, bound / true error
-/// at n = 4 / 8 / 16 / 32 (docs/design.md §5.10): none P1 2.07 / 1.61 / 1.25 / 1.11, P2 1.95 /
-/// 1.53 / 1.37 / 1.30; one P1 1.70 / 1.37 / 1.15 / 1.06, P2 1.89 / 1.45 / 1.25 / 1.14; a second
-/// gains < 6 % more for as much time again (each sweep ≈ 0.6 × the patch stage's CPU).
-pub const DEFAULT_SWEEPS: usize = 1;
+/// Sweeps run by default (`--sweeps`): none since the patches are solved colour by colour
+/// against the stress of the colours before (session 28, design §5.10), which takes most of
+/// what a sweep gave for the cost of none. Manufactured frictionless family, bound / true error
+/// at n = 4 / 8 / 16 / 32: colour-ordered patches P1 1.82 / 1.44 / 1.17 / 1.07, P2 1.90 / 1.46
+/// / 1.26 / 1.15; with one sweep on top P1 1.62 / 1.34 / 1.13 / 1.05, P2 1.88 / 1.45 / 1.25 /
+/// 1.13. (Independent patches: none P1 2.07 / 1.61 / 1.25 / 1.11, P2 1.95 / 1.53 / 1.37 / 1.30;
+/// one sweep P1 1.70 / 1.37 / 1.15 / 1.06, P2 1.89 / 1.45 / 1.25 / 1.14.) A sweep costs about
+/// 0.5 × the patch stage's CPU (1M P2 bench: 12.6 s on 2 threads against 23.9 s).
+pub const DEFAULT_SWEEPS: usize = 0;
 
 /// What the sweeps did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -67,7 +71,6 @@ pub fn sweep(
     sweeps: usize,
 ) -> SweepInfo {
     let mesh = ctx.mesh;
-    let npts = mesh.points.len();
     let mut info = SweepInfo {
         sweeps,
         ..Default::default()
@@ -77,37 +80,8 @@ pub fn sweep(
     }
     let (start, cells) = super::patch::vertex_patches(mesh);
     let patch = |v: usize| &cells[start[v] as usize..start[v + 1] as usize];
-    // Greedy colouring of the vertex graph: two vertices of one cell get different colours.
-    let mut colour = vec![u16::MAX; npts];
-    let mut used: Vec<bool> = Vec::new();
-    let mut ncol = 0usize;
-    for v in 0..npts {
-        if start[v + 1] == start[v] {
-            continue;
-        }
-        used.iter_mut().for_each(|u| *u = false);
-        for &(t, _) in patch(v) {
-            for &w in &mesh.nodes(t as usize)[..3] {
-                let c = colour[w as usize];
-                if c != u16::MAX {
-                    used[c as usize] = true;
-                }
-            }
-        }
-        let c = used.iter().position(|&u| !u).unwrap_or(used.len());
-        if c == used.len() {
-            used.push(false);
-        }
-        colour[v] = c as u16;
-        ncol = ncol.max(c + 1);
-    }
-    info.colours = ncol;
-    let mut by_colour: Vec<Vec<usize>> = vec![Vec::new(); ncol];
-    for (v, &c) in colour.iter().enumerate() {
-        if c != u16::MAX {
-            by_colour[c as usize].push(v);
-        }
-    }
+    let by_colour = colour_vertices(mesh, &start, &cells);
+    info.colours = by_colour.len();
     let mut dirichlet = vec![false; ctx.topo.edges.len()];
     for be in ctx.edges {
         if matches!(be.condition, Condition::Dirichlet(_)) {
@@ -116,15 +90,9 @@ pub fn sweep(
     }
     let higher = weak_symmetry && stress.order.k() >= 2;
     // The objective's pointwise form: the compliance A plus the asymmetry weight
-    // SWEEP_ASYMMETRY_WEIGHT/(2μ) |as τ|² (as τ = τ_xy − τ_yx).
-    let mut form = condense::compliance_matrix(&ctx.elastic);
-    let wk = SWEEP_ASYMMETRY_WEIGHT / (2.0 * ctx.elastic.mu);
-    let asv = [0.0, 1.0, -1.0, 0.0];
-    for p in 0..4 {
-        for q in 0..4 {
-            form[p][q] += wk * asv[p] * asv[q];
-        }
-    }
+    // ASYMMETRY_WEIGHT/(2μ) |as τ|² (as τ = τ_xy − τ_yx), also without the weak symmetry (the
+    // bound's symmetric correction pays for as σ_h either way).
+    let form = condense::objective_form(&ctx.elastic, true);
     for _ in 0..sweeps {
         for group in &by_colour {
             let current = &*stress;
@@ -163,6 +131,43 @@ pub fn sweep(
         }
     }
     info
+}
+
+/// The vertices with a patch, by colour of a greedy colouring of the vertex graph in vertex
+/// order: two vertices of one cell get different colours, so two patches of one colour share
+/// no cell. `start`, `cells`: [`super::patch::vertex_patches`].
+pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -> Vec<Vec<usize>> {
+    let npts = mesh.points.len();
+    let mut colour = vec![u16::MAX; npts];
+    let mut used: Vec<bool> = Vec::new();
+    let mut ncol = 0usize;
+    for v in 0..npts {
+        if start[v + 1] == start[v] {
+            continue;
+        }
+        used.iter_mut().for_each(|u| *u = false);
+        for &(t, _) in &cells[start[v] as usize..start[v + 1] as usize] {
+            for &w in &mesh.nodes(t as usize)[..3] {
+                let c = colour[w as usize];
+                if c != u16::MAX {
+                    used[c as usize] = true;
+                }
+            }
+        }
+        let c = used.iter().position(|&u| !u).unwrap_or(used.len());
+        if c == used.len() {
+            used.push(false);
+        }
+        colour[v] = c as u16;
+        ncol = ncol.max(c + 1);
+    }
+    let mut by_colour: Vec<Vec<usize>> = vec![Vec::new(); ncol];
+    for (v, &c) in colour.iter().enumerate() {
+        if c != u16::MAX {
+            by_colour[c as usize].push(v);
+        }
+    }
+    by_colour
 }
 
 /// δ_a of one patch (module doc), or None when the patch is left as it is.
@@ -505,6 +510,7 @@ mod tests {
     use super::*;
     use crate::geometry::values::sub_edge_point;
     use crate::read::scene::Norm;
+    use crate::tolerance::ASYMMETRY_WEIGHT;
 
     /// ‖σ − Cε(u)‖²_A + (w/2μ)‖as σ‖² by quadrature of degree 8 (σ ∈ P_3, ε(u) ∈ P_1).
     fn objective(ctx: &Context, u: &[[f64; 2]], s: &RtStress) -> f64 {
@@ -524,7 +530,7 @@ mod tests {
                 let ad = el.compliance(d);
                 let asv = sig[1] - sig[2];
                 let density = (0..4).map(|k| ad[k] * d[k]).sum::<f64>()
-                    + SWEEP_ASYMMETRY_WEIGHT / (2.0 * el.mu) * asv * asv;
+                    + ASYMMETRY_WEIGHT / (2.0 * el.mu) * asv * asv;
                 sum += w * sp.jac.det * density;
             }
         }
