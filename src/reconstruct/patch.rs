@@ -40,8 +40,9 @@ use super::condense::{self, MAX_EDGE_DOFS, MAX_MOMENTS, MAX_REDUCED};
 use super::flow;
 use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
+use crate::geometry::Family;
 use crate::geometry::Shape;
-use crate::geometry::values::{rule_degree, sub_edge_point, sub_point};
+use crate::geometry::values::{TriangleTable, rule_degree, sub_edge_point, sub_point};
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
@@ -246,9 +247,17 @@ pub fn reconstruct(
         .fold(0.0f64, f64::max)
         .max(f64::MIN_POSITIVE);
     let recovered = recovered_strain(mesh, u);
+    let varying_force = ctx
+        .scene
+        .body_force
+        .as_ref()
+        .is_some_and(|f| !(f[0].is_constant() && f[1].is_constant()));
+    let tables = RuleTable::build(mesh, order, varying_force);
     let setup = PatchSetup {
         prior: None,
         form: condense::objective_form(&ctx.elastic, weak_symmetry),
+        tables: &tables,
+        varying_force,
         order,
         condition: &condition,
         weak_symmetry,
@@ -520,6 +529,64 @@ struct PatchOut {
     cannot_take: flow::M3,
 }
 
+/// The degree of the rule of a patch cell's integrals (design §5.10): exact on a straight cell
+/// (the mass matrix comes from the reference Gram matrices), where ψ_a φ_i·ε(u_h) has degree
+/// 1 + k + (p − 1) and the divergence moments (ψ_a f + Cε(u_h)∇ψ_a + the linear flow loads)·q̂
+/// at most k + max(p − 1, 1) with f constant; curved cells integrate the mass matrix here too
+/// (2k + 2, and the map); a non-constant body force takes `LOAD_DEGREE`.
+fn cell_rule_degree(shape: Shape, k: usize, p: usize, varying_force: bool) -> usize {
+    let mut deg = if shape == Shape::Affine {
+        k + p
+    } else {
+        (2 * k + 2).max(k + p + 1).max(2 * p)
+    };
+    if varying_force {
+        deg = deg.max(LOAD_DEGREE);
+    }
+    rule_degree(shape, deg)
+}
+
+/// The shape functions and the RT reference basis of one triangle family at the points of one
+/// rule, evaluated once for all cells (per cell and point they were a tenth of the patch
+/// stage): [`TriangleTable::point`] is `sub_point` to the bit, and `rt::piola_of` of the
+/// tabulated values is `rt::piola`.
+struct RuleTable {
+    family: Family,
+    degree: usize,
+    geometry: TriangleTable,
+    rt: Vec<([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS])>,
+}
+
+impl RuleTable {
+    /// The tables of the rules `cell_rule_degree` gives, for every triangle family of `mesh`.
+    fn build(mesh: &Mesh, order: RtOrder, varying_force: bool) -> Vec<RuleTable> {
+        let mut tables: Vec<RuleTable> = Vec::new();
+        for fam in Family::ALL {
+            if fam.is_quad() || !mesh.family.contains(&fam) {
+                continue;
+            }
+            for shape in [Shape::Affine, Shape::Curved] {
+                let degree = cell_rule_degree(shape, order.k(), mesh.degree, varying_force);
+                if tables.iter().any(|t| t.family == fam && t.degree == degree) {
+                    continue;
+                }
+                let rule = triangle_rule_cached(degree);
+                tables.push(RuleTable {
+                    family: fam,
+                    degree,
+                    geometry: TriangleTable::new(fam, &rule.points),
+                    rt: rule
+                        .points
+                        .iter()
+                        .map(|&xi| rt::reference(order, xi))
+                        .collect(),
+                });
+            }
+        }
+        tables
+    }
+}
+
 /// The stress of the patches solved before this one, and which vertices those were
 /// (`reconstruct`'s colour-ordered final solves).
 #[derive(Clone, Copy)]
@@ -537,6 +604,10 @@ struct PatchSetup<'a> {
     prior: Option<Prior<'a>>,
     /// The objective's pointwise form (`condense::objective_form`).
     form: [[f64; 4]; 4],
+    /// The cells' rules, tabulated (`RuleTable::build`).
+    tables: &'a [RuleTable],
+    /// The body force is not constant (the rules take `LOAD_DEGREE`).
+    varying_force: bool,
     order: RtOrder,
     condition: &'a [Option<Condition>],
     weak_symmetry: bool,
@@ -876,19 +947,12 @@ fn solve_patch_rows(
         }
         let p = mesh.degree;
         let k = order.k();
-        // Exact degrees on a straight cell (the mass matrix comes from the reference Gram
-        // matrices): ψ_a φ_i·ε(u_h) has degree 1 + k + (p − 1), the divergence moments
-        // (ψ_a f + Cε(u_h)∇ψ_a + the linear flow loads)·q̂ at most k + max(p − 1, 1) with f
-        // constant. Curved cells integrate the mass matrix here too (2k + 2, and the map).
-        let mut deg = if affine {
-            k + p
-        } else {
-            (2 * k + 2).max(k + p + 1).max(2 * p)
-        };
-        if f_expr.is_some_and(|f| !(f[0].is_constant() && f[1].is_constant())) {
-            deg = deg.max(LOAD_DEGREE);
-        }
-        let rule = triangle_rule_cached(rule_degree(sh, deg));
+        let degree = cell_rule_degree(sh, k, p, setup.varying_force);
+        let rule = triangle_rule_cached(degree);
+        let table = setup
+            .tables
+            .iter()
+            .find(|tb| tb.family == fam && tb.degree == degree);
         let mut bloc = [0.0; 2 * MAX_RT_DOFS];
         // The symmetry row ∫_T (τ_xy − τ_yx) exactly (J is linear in ξ; condense.rs).
         let jv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
@@ -904,8 +968,11 @@ fn solve_patch_rows(
         if !affine {
             mloc.iter_mut().for_each(|v| *v = 0.0);
         }
-        for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-            let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
+        for (pi, (&xi, &wq)) in rule.points.iter().zip(&rule.weights).enumerate() {
+            let sp = match table {
+                Some(tb) => tb.geometry.point(&x[..fam.nodes()], pi),
+                None => sub_point(fam, &x[..fam.nodes()], sh, 0, xi),
+            };
             let jac = sp.jac;
             let w = wq * jac.det;
             let gu = sp.gradient_at(nodes, u);
@@ -942,7 +1009,10 @@ fn solve_patch_rows(
             if quick {
                 continue;
             }
-            let (v, _) = rt::piola(order, &jac, xi);
+            let (v, _) = match table {
+                Some(tb) => rt::piola_of(&tb.rt[pi], &jac),
+                None => rt::piola(order, &jac, xi),
+            };
             // The target's strain ε* (its stress Cε*: the linear term (τ, ψ_a ε*)).
             let eps = {
                 let mut e = [0.0; 3];
