@@ -913,7 +913,6 @@ fn solve_patch_rows(
     let mut mloc = vec![0.0; nl * nl];
     let mut mt = vec![0.0; nl * nr];
     let mut mred = vec![0.0; nr * nr];
-    let mut rmap = [Lin::default(); 2 * MAX_REDUCED];
     for (ci, &(t, j)) in cells.iter().enumerate() {
         let t = t as usize;
         let j = j as usize;
@@ -962,7 +961,8 @@ fn solve_patch_rows(
             part.srow[i] = b;
             part.srow[nloc + i] = -a;
         }
-        if higher {
+        // The P_1 symmetry rows only enter the solve (a balance-only patch has none to meet).
+        if higher && !quick {
             part.shi = higher_symmetry_rows(re, order, fam, &x[..fam.nodes()], sh);
         }
         if !affine {
@@ -1212,30 +1212,32 @@ fn solve_patch_rows(
                 }
             }
         }
-        // Reduced local unknown (row r, y) → patch unknowns.
-        for r in 0..2 {
-            for y in 0..nred {
-                rmap[r * nred + y] = if y < nedge {
-                    Lin {
-                        c: 0.0,
-                        ..part.emap[r][y]
-                    }
-                } else {
-                    let mut l = Lin::default();
-                    l.push(part.kernel + r * nz + (y - nedge), 1.0);
-                    l
-                };
+        // Reduced local unknown (row r, y) → patch unknowns: the edge value's terms, or the
+        // cell's free interior value (borrowed, not copied: this runs for every cell of every
+        // patch).
+        let kernel_terms: [[(u32, f64); 1]; 2 * MAX_REDUCED] = std::array::from_fn(|a| {
+            let (r, y) = (a / nred.max(1), a % nred.max(1));
+            [((part.kernel + r * nz + y.saturating_sub(nedge)) as u32, 1.0)]
+        });
+        let rmap: [&[(u32, f64)]; 2 * MAX_REDUCED] = std::array::from_fn(|a| {
+            let (r, y) = (a / nred.max(1), a % nred.max(1));
+            if a >= nr {
+                &[]
+            } else if y < nedge {
+                part.emap[r][y].terms()
+            } else {
+                &kernel_terms[a][..]
             }
-        }
+        });
         for a in 0..nr {
-            let ta = rmap[a].terms();
+            let ta = rmap[a];
             for (c, &mv) in mred[a * nr..(a + 1) * nr].iter().enumerate() {
                 if mv == 0.0 {
                     continue;
                 }
                 for &(va, ca) in ta {
                     let mrow = &mut m[va as usize * nvar..(va as usize + 1) * nvar];
-                    for &(vc, cc) in rmap[c].terms() {
+                    for &(vc, cc) in rmap[c] {
                         mrow[vc as usize] += ca * cc * mv;
                     }
                 }
@@ -1253,7 +1255,7 @@ fn solve_patch_rows(
                 if ga == 0.0 {
                     continue;
                 }
-                for &(va, ca) in rmap[a].terms() {
+                for &(va, ca) in rmap[a] {
                     row[va as usize] += ga * ca;
                 }
             }
@@ -1284,11 +1286,19 @@ fn solve_patch_rows(
             let sym_rows = std::iter::once((&part.srow, part.asym))
                 .chain(part.shi[..nhigher].iter().map(|row| (row, 0.0)));
             for (srow, rhs) in sym_rows {
+                // g_red = srowᵀ T per row, accumulated along T's rows (contiguous).
+                g_red.iter_mut().for_each(|v| *v = 0.0);
                 for r in 0..2 {
-                    for y in 0..nred {
-                        g_red[r * nred + y] = (0..nloc)
-                            .map(|c| srow[r * nloc + c] * re.transform[c * nred + y])
-                            .sum();
+                    let out = &mut g_red[r * nred..(r + 1) * nred];
+                    for c in 0..nloc {
+                        let sc = srow[r * nloc + c];
+                        if sc == 0.0 {
+                            continue;
+                        }
+                        let tc = &re.transform[c * nred..(c + 1) * nred];
+                        for (o, t) in out.iter_mut().zip(tc) {
+                            *o += sc * t;
+                        }
                     }
                 }
                 let d = rhs
