@@ -437,6 +437,15 @@ pub fn reconstruct(
                     .collect()
             };
             for (&i, mut o) in chunk.iter().zip(finals) {
+                // A patch solved in the passes (contact or curved) already has a solution with
+                // these loads: keep it when the colour-ordered solve met its constraints worse
+                // (the dual active-set method's infeasibility test depends on the objective
+                // through round-off: a Coulomb Hertz file evaluated without friction had one
+                // contact patch declared infeasible, with tangential traction left).
+                let old = &outs[i];
+                if old.solved && worse(&o, old) {
+                    o = std::mem::replace(&mut outs[i], o);
+                }
                 for (t, c) in std::mem::take(&mut o.cells) {
                     for r in 0..2 {
                         for j in 0..MAX_RT_DOFS {
@@ -477,6 +486,15 @@ pub fn reconstruct(
         },
         info,
     })
+}
+
+/// Whether solution `new` of a patch meets its constraints worse than `old` of the same patch
+/// and loads: infeasible or unsettled where `old` was not, or a defect above both
+/// `PATCH_DEFECT_RELATIVE` and `old`'s.
+fn worse(new: &PatchOut, old: &PatchOut) -> bool {
+    (old.feasible && !new.feasible)
+        || (old.settled && !new.settled)
+        || new.defect > old.defect.max(PATCH_DEFECT_RELATIVE)
 }
 
 /// Vertex patches in CSR form: the cells of vertex v, each with v's local index, are
