@@ -366,8 +366,9 @@ fn reconstruct_with(
             };
             let (v, d) = rt::piola(order, &jac, xi);
             // A τ and div τ of each local function (row r = φ_i, the other row 0).
-            let mut at = vec![[0.0; 4]; nl];
-            let mut dv = vec![[0.0; 2]; nl];
+            // On the stack: this runs at every quadrature point of every cell.
+            let mut at = [[0.0; 4]; 2 * MAX_RT_DOFS];
+            let mut dv = [[0.0; 2]; 2 * MAX_RT_DOFS];
             for r in 0..2 {
                 for i in 0..nloc {
                     let mut tau = [0.0; 4];
