@@ -921,7 +921,12 @@ fn solve_patch_rows(
     nvar += cells.len() * 2 * nz;
     let (nl, nr) = (2 * nloc, 2 * nred);
 
-    let mut m = vec![0.0; nvar * nvar];
+    // A balance-only patch assembles no matrix.
+    let mut m = if quick {
+        Vec::new()
+    } else {
+        vec![0.0; nvar * nvar]
+    };
     let mut bvec = vec![0.0; nvar];
     // Equality rows B (flat, row-major, nvar columns) and their right-hand sides d.
     let mut rows: Vec<f64> = Vec::new();
@@ -1392,7 +1397,16 @@ fn solve_patch_rows(
             }
             c
         };
-        let c = full(&legal);
+        // Without a solve every unknown is 0, and c = c₀ + T·0 is c₀ itself.
+        let c = if quick {
+            let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            for r in 0..2 {
+                c[r][..nloc].copy_from_slice(&part.c0[r * nloc..(r + 1) * nloc]);
+            }
+            c
+        } else {
+            full(&legal)
+        };
         let mut res = [[0.0; MAX_MOMENTS]; 2];
         for r in 0..2 {
             for q in 0..nq {
