@@ -31,8 +31,13 @@
 //! Every patch is an independent dense QP (a few dozen to ~150 unknowns), solved by
 //! [`qp::solve`]: the equality constraints orthonormalised once (modified Gram–Schmidt,
 //! dependent rows dropped) and eliminated through the Schur complement, then the
-//! Goldfarb–Idnani dual active-set method on the sign-constrained variables (finite). Patches run in parallel (rayon); the result is summed in vertex order, so
-//! it does not depend on the thread count.
+//! Goldfarb–Idnani dual active-set method on the sign-constrained variables (finite).
+//!
+//! After the balancing flows, every patch is solved once more with its final loads, colour by
+//! colour of a vertex colouring, against the sum of the colours before it (the target becomes
+//! Ψ_a Cε* − σ_prior with Ψ_a the hats of the vertices done and of a; design §5.10,
+//! "Colour-ordered solves"). Patches of one colour share no cell and run in parallel (rayon),
+//! the colours one after the other, so the result does not depend on the thread count.
 
 use rayon::prelude::*;
 
@@ -265,8 +270,9 @@ pub fn reconstruct(
         length,
         recovered: &recovered,
     };
-    // `balance_only`: patches whose balance is independent of the solution only give it (the
-    // flows need nothing else), and are solved once, with their final loads, after the passes.
+    // `balance_only`: patches whose balance is independent of the solution only give it in the
+    // passes (the flows need nothing else); every patch is solved with its final loads after
+    // the passes, colour by colour.
     let solve_with = |setup: &PatchSetup, i: usize, extra: &[Extra], balance_only: bool| {
         let v = vertices[i];
         let range = count[v] as usize..count[v + 1] as usize;
