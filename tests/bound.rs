@@ -7,6 +7,11 @@ mod common;
 
 use common::cli::{estimate, root};
 
+/// A fixture's expected.json (written by `reference/`, never by fosls).
+fn expected(dir: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap()
+}
+
 /// For an exact solution in the spaces the patch reconstruction reproduces Cε(u_h), and the
 /// bound is 0 to round-off and guaranteed: P1 (RT_1 patches, and the file's own stress), P2
 /// (RT_2 patches) on straight and on curved cells.
@@ -38,8 +43,7 @@ fn exact_solutions_give_a_zero_guaranteed_bound() {
 #[test]
 fn perturbed_solution_gets_a_guaranteed_bound_above_the_true_error() {
     let dir = root().join("fixtures/perturbed_u_energy");
-    let expected: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
+    let expected = expected(&dir);
     let truth = expected["hand"]["constitutive"].as_f64().unwrap().sqrt();
     let (code, r, err) = estimate(&dir.join("solution.vtu"), &["--stress", "patch"]);
     assert!(code == 0 || code == 1, "{err}");
@@ -106,9 +110,7 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
         let (mut traction, mut lift) = (Vec::new(), Vec::new());
         for n in ["04", "08", "16", "32"] {
             let dir = root().join(format!("fixtures/manufactured_frictionless_p{p}_n{n}"));
-            let expected: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap())
-                    .unwrap();
+            let expected = expected(&dir);
             let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
             let (code, r, err) = estimate(&dir.join("solution.vtu"), &["--stress", "patch"]);
             assert!(code == 0 || code == 1, "p{p} n{n}: {err}");
@@ -194,8 +196,7 @@ fn bounds_on_the_manufactured_family_are_above_the_true_error() {
 #[test]
 fn a_sweep_lowers_the_bound_and_keeps_it_above_the_true_error() {
     let dir = root().join("fixtures/manufactured_frictionless_p1_n04");
-    let expected: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
+    let expected = expected(&dir);
     let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
     let bound = |args: &[&str]| {
         let (code, r, err) = estimate(&dir.join("solution.vtu"), args);
@@ -260,8 +261,7 @@ fn dirichlet_data_missed_at_the_nodes_stay_a_failed_hypothesis() {
 #[test]
 fn the_default_mode_gives_the_bound_on_triangles() {
     let dir = root().join("fixtures/manufactured_frictionless_p2_n16");
-    let expected: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
+    let expected = expected(&dir);
     let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
     let (code, r, err) = estimate(&dir.join("solution.vtu"), &[]);
     assert!(code == 0 || code == 1, "{err}");
@@ -313,8 +313,7 @@ fn auto_falls_back_to_the_global_minimiser_when_patches_cannot_be_met() {
     assert_ne!(body, scene);
     let scene_path = dir.path().join("scene.toml");
     std::fs::write(&scene_path, body).unwrap();
-    let expected: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(src.join("expected.json")).unwrap()).unwrap();
+    let expected = expected(&src);
     let file = dir.path().join(expected["entry"].as_str().unwrap());
     let scene_arg = scene_path.to_str().unwrap();
     let (code, auto, err) = estimate(&file, &["--scene", scene_arg]);

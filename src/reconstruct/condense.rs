@@ -102,7 +102,7 @@ pub struct Reference {
     /// G^{ab} (index 2a + b), nloc × nloc each.
     pub gram: [Vec<f64>; 4],
     /// Tᵀ G^{ab} (nred × nloc) and Tᵀ G^{ab} T (nred × nred): the reduced Gram matrices of
-    /// [`affine_reduced`].
+    /// [`affine_reduced_form`].
     pub gram_left: [Vec<f64>; 4],
     pub gram_red: [Vec<f64>; 4],
     /// ∫_T̂ q̂_m φ̂_i for q̂ = 1, ξ, η (indexed `[i][m]`).
@@ -315,23 +315,12 @@ fn affine_coefficients(jac: &Jacobian, a: &[[f64; 4]; 4]) -> [[[f64; 4]; 2]; 2] 
     out
 }
 
-/// The condensed compliance matrix Tᵀ M T (row-major (2·nred)², index r·nred + y) of an affine
-/// cell and Tᵀ M c₀ (2·nred) for the local coefficients `c0` (index r·nloc + i), from the
-/// reduced Gram matrices: (TᵀMT)^{rr'} = Σ_ab C^{rr'}_ab Tᵀ G^{ab} T (module doc, "affine
-/// compliance matrix"). The same numbers as Tᵀ [`affine_mass`] T without the (2·nloc)² matrix.
-pub fn affine_reduced(
-    re: &Reference,
-    jac: &Jacobian,
-    el: &Elastic,
-    c0: &[f64],
-    mred: &mut [f64],
-    tmc0: &mut [f64],
-) {
-    affine_reduced_form(re, jac, &compliance_matrix(el), c0, mred, tmc0);
-}
-
-/// [`affine_reduced`] for the pointwise quadratic form `a` on (τ_xx, τ_xy, τ_yx, τ_yy) in place
-/// of the compliance A: Tᵀ M_a T and Tᵀ M_a c₀ with (M_a)_ij = ∫_T a τ_i : τ_j.
+/// The condensed matrix Tᵀ M_a T (row-major (2·nred)², index r·nred + y) of an affine cell
+/// and Tᵀ M_a c₀ (2·nred) for the local coefficients `c0` (index r·nloc + i), with
+/// (M_a)_ij = ∫_T a τ_i : τ_j for the pointwise quadratic form `a` on (τ_xx, τ_xy, τ_yx, τ_yy)
+/// (the compliance A, or [`objective_form`]), from the reduced Gram matrices: (TᵀM_aT)^{rr'} =
+/// Σ_ab C^{rr'}_ab Tᵀ G^{ab} T (module doc, "affine compliance matrix"). With a = A the same
+/// numbers as Tᵀ [`affine_mass`] T without the (2·nloc)² matrix.
 pub fn affine_reduced_form(
     re: &Reference,
     jac: &Jacobian,
@@ -538,7 +527,7 @@ mod tests {
             let nr = 2 * nred;
             let c0: Vec<f64> = (0..nl).map(|i| (i as f64 * 0.71 - 0.3).sin()).collect();
             let (mut mred, mut tmc0) = (vec![0.0; nr * nr], vec![0.0; nr]);
-            affine_reduced(re, &jac, &el, &c0, &mut mred, &mut tmc0);
+            affine_reduced_form(re, &jac, &compliance_matrix(&el), &c0, &mut mred, &mut tmc0);
             let t = |a: usize, y: usize| {
                 // T block-diagonal over the rows: local a = r·nloc + i, reduced y = r'·nred + j.
                 if a / nloc == y / nred {

@@ -425,7 +425,7 @@ pub fn reconstruct(
     for (i, &v) in vertices.iter().enumerate() {
         index[v] = i;
     }
-    for group in super::sweep::colour_vertices(mesh, &count, &members) {
+    for group in colour_vertices(mesh, &count, &members) {
         let ids: Vec<usize> = group.iter().map(|&v| index[v]).collect();
         for chunk in ids.chunks(FINAL_CHUNK) {
             let finals: Vec<PatchOut> = {
@@ -525,6 +525,43 @@ pub(super) fn vertex_patches(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u8)>) {
         }
     }
     (count, members)
+}
+
+/// The vertices with a patch, by colour of a greedy colouring of the vertex graph in vertex
+/// order: two vertices of one cell get different colours, so two patches of one colour share
+/// no cell. `start`, `cells`: [`vertex_patches`].
+pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -> Vec<Vec<usize>> {
+    let npts = mesh.points.len();
+    let mut colour = vec![u16::MAX; npts];
+    let mut used: Vec<bool> = Vec::new();
+    let mut ncol = 0usize;
+    for v in 0..npts {
+        if start[v + 1] == start[v] {
+            continue;
+        }
+        used.iter_mut().for_each(|u| *u = false);
+        for &(t, _) in &cells[start[v] as usize..start[v + 1] as usize] {
+            for &w in &mesh.nodes(t as usize)[..3] {
+                let c = colour[w as usize];
+                if c != u16::MAX {
+                    used[c as usize] = true;
+                }
+            }
+        }
+        let c = used.iter().position(|&u| !u).unwrap_or(used.len());
+        if c == used.len() {
+            used.push(false);
+        }
+        colour[v] = c as u16;
+        ncol = ncol.max(c + 1);
+    }
+    let mut by_colour: Vec<Vec<usize>> = vec![Vec::new(); ncol];
+    for (v, &c) in colour.iter().enumerate() {
+        if c != u16::MAX {
+            by_colour[c as usize].push(v);
+        }
+    }
+    by_colour
 }
 
 struct PatchOut {

@@ -32,7 +32,7 @@ use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 use crate::field::RtStress;
 use crate::geometry::Shape;
 use crate::geometry::values::{rule_degree, sub_point};
-use crate::mesh::{Mesh, NONE};
+use crate::mesh::NONE;
 use crate::problem::{Condition, Context};
 use crate::quadrature::triangle_rule_cached;
 use crate::tolerance::SWEEP_DEFECT;
@@ -80,7 +80,7 @@ pub fn sweep(
     }
     let (start, cells) = super::patch::vertex_patches(mesh);
     let patch = |v: usize| &cells[start[v] as usize..start[v + 1] as usize];
-    let by_colour = colour_vertices(mesh, &start, &cells);
+    let by_colour = super::patch::colour_vertices(mesh, &start, &cells);
     info.colours = by_colour.len();
     let mut dirichlet = vec![false; ctx.topo.edges.len()];
     for be in ctx.edges {
@@ -131,43 +131,6 @@ pub fn sweep(
         }
     }
     info
-}
-
-/// The vertices with a patch, by colour of a greedy colouring of the vertex graph in vertex
-/// order: two vertices of one cell get different colours, so two patches of one colour share
-/// no cell. `start`, `cells`: [`super::patch::vertex_patches`].
-pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -> Vec<Vec<usize>> {
-    let npts = mesh.points.len();
-    let mut colour = vec![u16::MAX; npts];
-    let mut used: Vec<bool> = Vec::new();
-    let mut ncol = 0usize;
-    for v in 0..npts {
-        if start[v + 1] == start[v] {
-            continue;
-        }
-        used.iter_mut().for_each(|u| *u = false);
-        for &(t, _) in &cells[start[v] as usize..start[v + 1] as usize] {
-            for &w in &mesh.nodes(t as usize)[..3] {
-                let c = colour[w as usize];
-                if c != u16::MAX {
-                    used[c as usize] = true;
-                }
-            }
-        }
-        let c = used.iter().position(|&u| !u).unwrap_or(used.len());
-        if c == used.len() {
-            used.push(false);
-        }
-        colour[v] = c as u16;
-        ncol = ncol.max(c + 1);
-    }
-    let mut by_colour: Vec<Vec<usize>> = vec![Vec::new(); ncol];
-    for (v, &c) in colour.iter().enumerate() {
-        if c != u16::MAX {
-            by_colour[c as usize].push(v);
-        }
-    }
-    by_colour
 }
 
 /// δ_a of one patch (module doc), or None when the patch is left as it is.

@@ -263,18 +263,23 @@ fn analyse(
 
 /// AMD of K's whole pattern: `order[position] = unknown`.
 fn whole_amd(k: &SymCsc) -> Result<Vec<usize>, String> {
-    let n = k.n;
+    amd_order(k.symbolic())
+}
+
+/// faer's AMD of a symmetric `pattern` (either triangle or both): `order[position] = unknown`.
+fn amd_order(pattern: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, String> {
+    let n = pattern.ncols();
     let mut order = vec![0usize; n];
     let mut order_inv = vec![0usize; n];
     let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(
         n,
-        k.row_idx.len(),
+        pattern.row_idx().len(),
     ))
     .map_err(|_| out_of_memory("fill-reducing ordering"))?;
     amd::order_maybe_unsorted(
         &mut order,
         &mut order_inv,
-        k.symbolic(),
+        pattern,
         Default::default(),
         MemStack::new(&mut mem),
     )
@@ -349,25 +354,10 @@ fn compressed_amd(k: &SymCsc) -> Result<Vec<usize>, String> {
         col_ptr.push(row_idx.len());
     }
     drop(mark);
-    let pattern = SymbolicSparseColMatRef::new_checked(ns, ns, &col_ptr, None, &row_idx);
-    let mut order = vec![0usize; ns];
-    let mut order_inv = vec![0usize; ns];
-    {
-        let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(
-            ns,
-            row_idx.len(),
-        ))
-        .map_err(|_| out_of_memory("fill-reducing ordering"))?;
-        amd::order_maybe_unsorted(
-            &mut order,
-            &mut order_inv,
-            pattern,
-            Default::default(),
-            MemStack::new(&mut mem),
-        )
-        .map_err(|e| format!("fill-reducing ordering: {e:?}"))?;
-    }
-    drop((col_ptr, row_idx, order_inv));
+    let order = amd_order(SymbolicSparseColMatRef::new_checked(
+        ns, ns, &col_ptr, None, &row_idx,
+    ))?;
+    drop((col_ptr, row_idx));
     Ok(expand(&order, &sv, ns))
 }
 
