@@ -186,9 +186,13 @@ fn build(order: RtOrder) -> Reference {
             left[m * nq + q] = u[(q, rank + m)];
         }
     }
+    // The kernel columns of U₀ᵀ D T are U₀ᵀ D_I V₀ = 0 (V₀ spans ker D_I): exact zeros, not the
+    // ~1e-14 the products leave. Round-off there made a corner patch whose only unknowns are
+    // kernel values (a cell with two Neumann edges at the vertex) meet an inconsistent flux
+    // balance by values ~1e14 instead of reporting it (design §5.10).
     let mut kept = vec![0.0; n0 * nred];
     for m in 0..n0 {
-        for y in 0..nred {
+        for y in 0..nedge {
             kept[m * nred + y] = (0..nq)
                 .map(|q| {
                     left[m * nq + q]
@@ -238,6 +242,33 @@ fn build(order: RtOrder) -> Reference {
         gram_left,
         gram_red,
         first,
+    }
+}
+
+/// A weak-symmetry row in the reduced unknowns of both rows, g = srowᵀ T per row (`srow`: the
+/// row over the local functions, row r at r·nloc). For the constant row (`constant`), the
+/// kernel columns are set to exact zeros: a kernel value is the curl of the cubic bubble b in
+/// one row, whose ∫_T as τ = ±∫_T ∂b vanishes as b = 0 on ∂T; the products leave ~1e-14 there,
+/// which a patch whose only unknowns are kernel values met with values ~1e14 (design §5.10).
+pub fn symmetry_row_reduced(re: &Reference, srow: &[f64], constant: bool, g: &mut [f64]) {
+    let (nloc, nred, nedge) = (re.nloc, re.nred, re.nedge);
+    g[..2 * nred].fill(0.0);
+    for r in 0..2 {
+        // Accumulated along T's rows (contiguous).
+        let out = &mut g[r * nred..(r + 1) * nred];
+        for c in 0..nloc {
+            let sc = srow[r * nloc + c];
+            if sc == 0.0 {
+                continue;
+            }
+            let tc = &re.transform[c * nred..(c + 1) * nred];
+            for (o, t) in out.iter_mut().zip(tc) {
+                *o += sc * t;
+            }
+        }
+        if constant {
+            out[nedge..].fill(0.0);
+        }
     }
 }
 

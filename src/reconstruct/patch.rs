@@ -1351,22 +1351,8 @@ fn solve_patch_rows(
             let nhigher = if higher { part.shi.len() } else { 0 };
             let sym_rows = std::iter::once((&part.srow, part.asym))
                 .chain(part.shi[..nhigher].iter().map(|row| (row, 0.0)));
-            for (srow, rhs) in sym_rows {
-                // g_red = srowᵀ T per row, accumulated along T's rows (contiguous).
-                g_red.iter_mut().for_each(|v| *v = 0.0);
-                for r in 0..2 {
-                    let out = &mut g_red[r * nred..(r + 1) * nred];
-                    for c in 0..nloc {
-                        let sc = srow[r * nloc + c];
-                        if sc == 0.0 {
-                            continue;
-                        }
-                        let tc = &re.transform[c * nred..(c + 1) * nred];
-                        for (o, t) in out.iter_mut().zip(tc) {
-                            *o += sc * t;
-                        }
-                    }
-                }
+            for (which, (srow, rhs)) in sym_rows.enumerate() {
+                condense::symmetry_row_reduced(re, &srow[..], which == 0, &mut g_red);
                 let d = rhs
                     - srow[..nl]
                         .iter()

@@ -355,14 +355,8 @@ fn solve(
             } else {
                 Vec::new()
             };
-            for srow in std::iter::once(&srow).chain(&higher_rows) {
-                for r in 0..2 {
-                    for y in 0..nred {
-                        g[r * nred + y] = (0..nloc)
-                            .map(|i| srow[r * nloc + i] * re.transform[i * nred + y])
-                            .sum();
-                    }
-                }
+            for (which, srow) in std::iter::once(&srow).chain(&higher_rows).enumerate() {
+                condense::symmetry_row_reduced(re, &srow[..], which == 0, &mut g);
                 push(&g);
             }
         }
