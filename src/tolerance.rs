@@ -343,3 +343,9 @@ pub const OPEN_GAP_RELATIVE: f64 = 1e-1;
 /// and the reference-split correction then left an asymmetry of ~1e-9 of the stress scale on 30
 /// CalculiX CPE6 cells. Double-precision midpoints are off by ~1e-16.
 pub const STRAIGHT_MID_RELATIVE: f64 = 1e-12;
+
+/// A rigid motion whose share of the contact edges' Gram matrix G (`problem::free_rigid_motions`)
+/// is below this fraction of G's largest eigenvalue is left free by the scene: G is a sum of
+/// squares of O(1) terms over a few edges, so round-off is ~1e-16 of its largest eigenvalue,
+/// while a held motion has an eigenvalue of the order of (contact length / box size)³.
+pub const FREE_MOTION_RELATIVE: f64 = 1e-12;

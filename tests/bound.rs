@@ -287,6 +287,43 @@ fn a_corner_patch_with_kernel_values_only_meets_its_tractions() {
     assert!(e.is_finite() && e < 10.0 * r.energy.sqrt(), "bound {e:e}");
 }
 
+/// A scene without a Dirichlet boundary whose only support is frictionless contact on the
+/// plane y = 0 leaves the translation along x free (by hand: ρ = e_x has ρ·n = 0 on every
+/// contact edge, while e_y and the rotation move the contact edges along n). The block file
+/// with its Dirichlet top made traction-free: the report says so; with the scene as committed
+/// it does not.
+#[test]
+fn a_scene_without_dirichlet_data_names_the_rigid_motion_it_leaves_free() {
+    let src = root().join("fixtures/block_skfem_p1");
+    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
+    let fixed = "kind = \"dirichlet\"\ndisplacement = [0.0, -0.01]";
+    assert!(scene.contains(fixed), "the fixture's scene changed");
+    let free = scene.replace(fixed, "kind = \"neumann\"\ntraction = [\"0\", \"0\"]");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(src.join("solution.vtu"), dir.path().join("solution.vtu")).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), free).unwrap();
+    let free_notes = |r: &fosls::report::json::Report| -> Vec<String> {
+        r.notes
+            .iter()
+            .filter(|n| n.starts_with("the scene leaves"))
+            .cloned()
+            .collect()
+    };
+    let (code, r, err) = estimate(&dir.path().join("solution.vtu"), &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    let notes = free_notes(&r.expect("a report"));
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("the scene leaves the translation along (1.000, 0.000) free")
+            || notes[0].starts_with("the scene leaves the translation along (-1.000, 0.000) free"),
+        "{}",
+        notes[0]
+    );
+    let (code, r, err) = estimate(&src.join("solution.vtu"), &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    assert!(free_notes(&r.expect("a report")).is_empty());
+}
+
 /// `auto` (no option) rebuilds a missing or inadmissible stress by patch equilibration on
 /// triangles, so the default run gives the bound: above the exact solution's error on a
 /// manufactured P2 mesh, guaranteed on the Hertz P2 file. Quadrilaterals keep the global

@@ -774,6 +774,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         ));
     }
     notes.extend(boundaries.notes.iter().cloned());
+    notes.extend(problem::free_rigid_motions(&ctx));
     if let Some(m) = &data.report.merge {
         notes.push(format!(
             "{}: {} node copies merged into {} nodes",

@@ -62,6 +62,107 @@ impl<'a> Context<'a> {
     }
 }
 
+/// The rigid motions the scene leaves free, as sentences for the report's notes (empty when
+/// there are none or when the question does not apply).
+///
+/// Without a Dirichlet edge, only the contact edges hold the body, and frictionless contact
+/// holds only motions along the contact direction n: a rigid motion ρ (translations e_x, e_y
+/// and the rotation (−(y − y₀), x − x₀)/L about the centre x₀ of the mesh's box, L its
+/// half-size) with ρ·n = 0 on every contact edge is free. Those are the kernel of the Gram
+/// matrix G_ij = Σ_E ∫_E (ρ_i·n)(ρ_j·n) (two Gauss points on each edge's chord, ample for a
+/// rank test). The problem then has a solution only for loads with no resultant along such a
+/// ρ, unique only up to it, and the patch flows find no patch to take that load
+/// (docs/design.md §5.10). With friction the tangential motions can be held, so nothing is
+/// reported; with a Dirichlet edge nothing is free.
+pub fn free_rigid_motions(ctx: &Context) -> Vec<String> {
+    use crate::read::scene::BoundaryKind;
+    let mesh = ctx.mesh;
+    let mut contact = Vec::new();
+    for be in ctx.edges {
+        match be.condition {
+            Condition::Dirichlet(_) => return Vec::new(),
+            Condition::Contact(b) => {
+                let BoundaryKind::Contact(spec) = &ctx.scene.boundaries[b].kind else {
+                    continue;
+                };
+                if spec.friction > 0.0 {
+                    return Vec::new();
+                }
+                contact.push((be, spec));
+            }
+            _ => {}
+        }
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in &mesh.points {
+        for c in 0..2 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let x0 = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    let half = (0.5 * (hi[0] - lo[0])).max(0.5 * (hi[1] - lo[1]));
+    if !(half > 0.0 && half.is_finite()) {
+        return Vec::new();
+    }
+    let mut g = [[0.0f64; 3]; 3];
+    // Gauss–Legendre on [0, 1], 2 points.
+    let gauss = [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()];
+    for (be, spec) in &contact {
+        let t = be.cell as usize;
+        let fam = mesh.family[t];
+        let x = mesh.coords(t);
+        let [i, j, _] = fam.edge_nodes(be.local as usize);
+        let (a, b) = (x[i], x[j]);
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let len = d[0].hypot(d[1]);
+        if len == 0.0 {
+            continue;
+        }
+        let n = spec.direction([d[1] / len, -d[0] / len]);
+        for s in gauss {
+            let p = [a[0] + s * d[0], a[1] + s * d[1]];
+            let v = [
+                n[0],
+                n[1],
+                (-(p[1] - x0[1]) * n[0] + (p[0] - x0[0]) * n[1]) / half,
+            ];
+            for r in 0..3 {
+                for c in 0..3 {
+                    g[r][c] += 0.5 * len * v[r] * v[c];
+                }
+            }
+        }
+    }
+    let svd = faer::Mat::<f64>::from_fn(3, 3, |r, c| g[r][c])
+        .svd()
+        .expect("the SVD of a 3 × 3 matrix converges");
+    let (sv, vm) = (svd.S().column_vector(), svd.V());
+    let top = (0..3).map(|k| sv[k]).fold(0.0f64, f64::max);
+    let mut out = Vec::new();
+    for k in 0..3 {
+        if top > 0.0 && sv[k] > crate::tolerance::FREE_MOTION_RELATIVE * top {
+            continue;
+        }
+        let v = [vm[(0, k)], vm[(1, k)], vm[(2, k)]];
+        let motion = if v[2].abs() <= crate::tolerance::FREE_MOTION_RELATIVE.sqrt() {
+            let l = v[0].hypot(v[1]);
+            format!("the translation along ({:.3}, {:.3})", v[0] / l, v[1] / l)
+        } else {
+            // ρ = (v₀ − v₂(y − y₀)/L, v₁ + v₂(x − x₀)/L) vanishes at its centre.
+            let c = [x0[0] - v[1] * half / v[2], x0[1] + v[0] * half / v[2]];
+            format!("the rotation about ({:.4e}, {:.4e})", c[0], c[1])
+        };
+        out.push(format!(
+            "the scene leaves {motion} free: no Dirichlet boundary, and frictionless contact \
+             holds only motions along its direction; a solution exists only for loads without \
+             a resultant along it and is then not unique, and the patch reconstruction finds \
+             no patch to take that load"
+        ));
+    }
+    out
+}
+
 /// A committed fixture read the way `audit::run` reads it (tests of the reconstructions).
 #[cfg(test)]
 pub(crate) struct Fixture {
