@@ -324,6 +324,51 @@ fn a_scene_without_dirichlet_data_names_the_rigid_motion_it_leaves_free() {
     assert!(free_notes(&r.expect("a report")).is_empty());
 }
 
+/// A contact edge whose direction never meets the obstacle (the exact P1 square's left side
+/// as contact with the plane y = 0 and `normal = "body"`: n = (−1, 0) is parallel to the plane)
+/// can never be in contact, so its condition is σ_n = 0. By hand, the file's exact stress has
+/// σ_n = σ_xx = −14.6307 there: that is the tension violation, named, and no pairing is
+/// infinite. (Every stress source used to stop with "functional.total is infinite / not a
+/// number": the pairing (u_n − g)σ_n with g = ∞, or the global minimiser's load with it.) The
+/// patch stress is traction-free there to round-off and gets a finite bound.
+#[test]
+fn a_contact_edge_facing_away_from_the_obstacle_is_traction_free() {
+    let src = root().join("fixtures/exact_p1_energy");
+    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
+    let left = "kind = \"neumann\"\ntraction = [\"14.630681818181827\", \"0.0\"]";
+    assert!(scene.contains(left), "the fixture's scene changed");
+    let away = "kind = \"contact\"\n\
+                obstacle = { plane = { point = [0.0, 0.0], normal = [0.0, 1.0] } }\n\
+                normal = \"body\"";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(src.join("solution.vtu"), dir.path().join("solution.vtu")).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), scene.replace(left, away)).unwrap();
+    let file = dir.path().join("solution.vtu");
+    let (code, r, err) = estimate(&file, &["--stress", "file", "--displacement", "file"]);
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.expect("a report");
+    let sigma_xx = 14.630681818181827;
+    let t = r.admissibility.tension_max;
+    assert!((t - sigma_xx).abs() <= 1e-9 * sigma_xx, "tension_max {t}");
+    assert!(r.functional.total.is_finite());
+    assert!(
+        r.bound
+            .failed_hypotheses
+            .iter()
+            .any(|h| h.contains("presses where its direction never meets the obstacle")),
+        "{:?}",
+        r.bound.failed_hypotheses
+    );
+    for stress in ["patch", "global"] {
+        let (code, r, err) = estimate(&file, &["--stress", stress, "--displacement", "file"]);
+        assert!(code == 0 || code == 1, "{stress}: {err}");
+        let r = r.expect("a report");
+        assert!(r.functional.total.is_finite(), "{stress}");
+        let t = r.admissibility.tension_max;
+        assert!(t <= 1e-9 * sigma_xx, "{stress}: tension_max {t}");
+    }
+}
+
 /// `auto` (no option) rebuilds a missing or inadmissible stress by patch equilibration on
 /// triangles, so the default run gives the bound: above the exact solution's error on a
 /// manufactured P2 mesh, guaranteed on the Hertz P2 file. Quadrilaterals keep the global

@@ -159,11 +159,14 @@ fn contact_at(a: &At, c: &ContactSpec) -> ContactAt {
     }
 }
 
-/// (u_n − g)σ_n, with the convention 0·∞ = 0 where the gap is infinite (the contact
-/// direction never meets the obstacle) and the traction vanishes.
+/// (u_n − g)σ_n; 0 where the gap is infinite (the contact direction never meets the
+/// obstacle). There contact cannot happen, so the condition is σ_n = 0, as on a traction-free
+/// edge: a σ_n ≠ 0 counts with the tension violations (`boundary`), not as an infinite pairing.
+/// (The pairing used to be 0·∞ = 0 only for σ_n exactly 0: a reconstructed stress's round-off
+/// σ_n ~ 1e-17 made F infinite and the run stop on a non-finite total.)
 #[inline]
 fn complementarity_density(c: &ContactAt) -> f64 {
-    if c.g.is_infinite() && c.sn == 0.0 {
+    if c.g.is_infinite() {
         0.0
     } else {
         (c.un - c.g) * c.sn
@@ -485,7 +488,13 @@ pub fn boundary_with(
                         out.contact.normal_force_stress -= dw * p.sn;
                         out.contact.tangential_force += dw * p.st;
                         pen.l2sq += dw * (p.un - p.g).max(0.0).powi(2);
-                        ten.l2sq += dw * p.sn.max(0.0).powi(2);
+                        // Where the gap is infinite σ_n must vanish (complementarity_density).
+                        ten.l2sq += dw
+                            * if p.g.is_infinite() {
+                                p.sn * p.sn
+                            } else {
+                                p.sn.max(0.0).powi(2)
+                            };
                         cone.l2sq += dw * (p.st.abs() - fr * p.sn.abs()).max(0.0).powi(2);
                     }
                     let mid = q(a + 0.5 * h);
@@ -534,6 +543,14 @@ pub fn boundary_with(
                     if v.is_finite() {
                         acc.offer(v, f.at(s).x, inp.mesh.file_cell[t] as usize);
                     }
+                }
+                // σ_n where the gap is infinite (complementarity_density).
+                let (v, s) = maximum(&|s: f64| {
+                    let p = q(s);
+                    if p.g.is_infinite() { p.sn.abs() } else { 0.0 }
+                });
+                if v > 0.0 && v.is_finite() {
+                    ten.offer(v, f.at(s).x, inp.mesh.file_cell[t] as usize);
                 }
 
                 if e.line != NONE {

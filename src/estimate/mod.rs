@@ -55,7 +55,7 @@ pub struct Violation {
 pub struct Admissibility {
     /// (u_n − g)⁺ on Γ_C.
     pub penetration: Violation,
-    /// σ_n⁺ on Γ_C.
+    /// σ_n⁺ on Γ_C, and |σ_n| where the gap is infinite (contact cannot happen there).
     pub tension: Violation,
     /// (|σ_t| − 𝔉|σ_n|)⁺ on Γ_C (|σ_t| on frictionless contact).
     pub cone_violation: Violation,
@@ -272,7 +272,8 @@ pub fn failed_checks(
     check(
         &adm.tension,
         ts,
-        "σ_h is tensile on the contact boundary: σ_n > 0",
+        "σ_h is tensile on the contact boundary (σ_n > 0), or presses where its direction \
+         never meets the obstacle (σ_n ≠ 0 with an infinite gap)",
     );
     check(
         &adm.cone_violation,

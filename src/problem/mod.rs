@@ -72,7 +72,8 @@ impl<'a> Context<'a> {
 /// matrix G_ij = Σ_E ∫_E (ρ_i·n)(ρ_j·n) (two Gauss points on each edge's chord, ample for a
 /// rank test). The problem then has a solution only for loads with no resultant along such a
 /// ρ, unique only up to it, and the patch flows find no patch to take that load
-/// (docs/design.md §5.10). With friction the tangential motions can be held, so nothing is
+/// (docs/design.md §5.10). Edges whose ray along n misses the obstacle (infinite gap) hold
+/// nothing and are left out. With friction the tangential motions can be held, so nothing is
 /// reported; with a Dirichlet edge nothing is free.
 pub fn free_rigid_motions(ctx: &Context) -> Vec<String> {
     use crate::read::scene::BoundaryKind;
@@ -120,6 +121,11 @@ pub fn free_rigid_motions(ctx: &Context) -> Vec<String> {
             continue;
         }
         let n = spec.direction([d[1] / len, -d[0] / len]);
+        // An edge whose ray along n never meets the obstacle can never hold anything.
+        let mid = [a[0] + 0.5 * d[0], a[1] + 0.5 * d[1]];
+        if !spec.gap_at(mid, n).is_finite() {
+            continue;
+        }
         for s in gauss {
             let p = [a[0] + s * d[0], a[1] + s * d[1]];
             let v = [

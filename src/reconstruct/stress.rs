@@ -220,6 +220,13 @@ fn reconstruct_with(
                         continue;
                     };
                     let cn = spec.direction(normal);
+                    // Where the contact direction never meets the obstacle (infinite gap)
+                    // contact cannot happen: the slot is traction-free, as in the patches.
+                    if !spec.gap_at(p, cn).is_finite() {
+                        fixed[g0] = Some(0.0);
+                        fixed[g1] = Some(0.0);
+                        continue;
+                    }
                     let ct = [-cn[1], cn[0]];
                     let fr = spec.friction;
                     // Where u_h leaves a gap and Cε(u_h) does not press on the boundary, the
@@ -413,6 +420,10 @@ fn reconstruct_with(
                 let cn = spec.direction(normal);
                 let ct = [-cn[1], cn[0]];
                 let gap = spec.gap_at(p, cn);
+                // Traction-free there (the slots are fixed to 0 above): no pairing.
+                if !gap.is_finite() {
+                    continue;
+                }
                 let un = cn[0] * u[0] + cn[1] * u[1];
                 let ut = ct[0] * u[0] + ct[1] * u[1];
                 let fr = spec.friction;
