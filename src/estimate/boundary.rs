@@ -545,7 +545,7 @@ pub fn boundary_with(
                     }
                 }
                 // σ_n where the gap is infinite (complementarity_density).
-                let (v, s) = maximum(&|s: f64| {
+                let (v, s) = maximum(|s: f64| {
                     let p = q(s);
                     if p.g.is_infinite() { p.sn.abs() } else { 0.0 }
                 });
