@@ -675,7 +675,8 @@ pub fn bound(
         computable = false;
         failed.push(format!(
             "σ_h is not equilibrated: div σ_h + f has non-zero moments against the rigid motions \
-             on {unbalanced} cells (largest relative moment {:.1e}); use --stress patch",
+             on {unbalanced} cells (largest relative moment {:.1e}); the patch reconstruction \
+             (--stress patch) equilibrates exactly wherever its patch problems can be met",
             cells.iter().fold(0.0f64, |m, c| m.max(c.moment))
         ));
     }
