@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::cli::{estimate, root};
+use common::cli::{estimate, fixture_with_scene, root};
 
 /// A fixture's expected.json (written by `reference/`, never by fosls).
 fn expected(dir: &std::path::Path) -> serde_json::Value {
@@ -224,17 +224,12 @@ fn a_sweep_lowers_the_bound_and_keeps_it_above_the_true_error() {
 /// of the top edge of manufactured_frictionless_p2_n08 are shifted by 1e-3.
 #[test]
 fn dirichlet_data_missed_at_the_nodes_stay_a_failed_hypothesis() {
-    let src = root().join("fixtures/manufactured_frictionless_p2_n08");
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(src.join("solution.vtu"), dir.path().join("solution.vtu")).unwrap();
-    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
-    let shifted = scene.replacen("displacement = [\"(", "displacement = [\"1e-3 + (", 1);
-    assert_ne!(shifted, scene);
-    std::fs::write(dir.path().join("scene.toml"), shifted).unwrap();
-    let (code, r, err) = estimate(
-        &dir.path().join("solution.vtu"),
-        &["--stress", "patch", "--displacement", "file"],
+    let (_dir, file) = fixture_with_scene(
+        "manufactured_frictionless_p2_n08",
+        "displacement = [\"(",
+        "displacement = [\"1e-3 + (",
     );
+    let (code, r, err) = estimate(&file, &["--stress", "patch", "--displacement", "file"]);
     assert!(code == 0 || code == 1, "{err}");
     let b = r.expect("a report").bound;
     assert!(
@@ -265,16 +260,11 @@ fn dirichlet_data_missed_at_the_nodes_stay_a_failed_hypothesis() {
 /// traction 14.6, and the bound is finite and guaranteed.
 #[test]
 fn a_corner_patch_with_kernel_values_only_meets_its_tractions() {
-    let src = root().join("fixtures/exact_p2_curved_energy");
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(src.join("solution.vtu"), dir.path().join("solution.vtu")).unwrap();
-    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
     let arc = "name = \"inner_arc\"\ntag = 4\nkind = \"dirichlet\"\n\
                displacement = [\"0.0005 + 0.001*x\", \"-0.004*y\"]";
     let free = "name = \"inner_arc\"\ntag = 4\nkind = \"neumann\"\ntraction = [\"0\", \"0\"]";
-    assert!(scene.contains(arc), "the fixture's scene changed");
-    std::fs::write(dir.path().join("scene.toml"), scene.replace(arc, free)).unwrap();
-    let (code, r, err) = estimate(&dir.path().join("solution.vtu"), &["--stress", "patch"]);
+    let (_dir, file) = fixture_with_scene("exact_p2_curved_energy", arc, free);
+    let (code, r, err) = estimate(&file, &["--stress", "patch"]);
     assert!(code == 0 || code == 1, "{err}");
     let r = r.expect("a report");
     let misfit = r.admissibility.neumann_max;
@@ -294,14 +284,11 @@ fn a_corner_patch_with_kernel_values_only_meets_its_tractions() {
 /// it does not.
 #[test]
 fn a_scene_without_dirichlet_data_names_the_rigid_motion_it_leaves_free() {
-    let src = root().join("fixtures/block_skfem_p1");
-    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
-    let fixed = "kind = \"dirichlet\"\ndisplacement = [0.0, -0.01]";
-    assert!(scene.contains(fixed), "the fixture's scene changed");
-    let free = scene.replace(fixed, "kind = \"neumann\"\ntraction = [\"0\", \"0\"]");
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(src.join("solution.vtu"), dir.path().join("solution.vtu")).unwrap();
-    std::fs::write(dir.path().join("scene.toml"), free).unwrap();
+    let (_dir, file) = fixture_with_scene(
+        "block_skfem_p1",
+        "kind = \"dirichlet\"\ndisplacement = [0.0, -0.01]",
+        "kind = \"neumann\"\ntraction = [\"0\", \"0\"]",
+    );
     let free_notes = |r: &fosls::report::json::Report| -> Vec<String> {
         r.notes
             .iter()
@@ -309,7 +296,7 @@ fn a_scene_without_dirichlet_data_names_the_rigid_motion_it_leaves_free() {
             .cloned()
             .collect()
     };
-    let (code, r, err) = estimate(&dir.path().join("solution.vtu"), &[]);
+    let (code, r, err) = estimate(&file, &[]);
     assert!(code == 0 || code == 1, "{err}");
     let notes = free_notes(&r.expect("a report"));
     assert_eq!(notes.len(), 1, "{notes:?}");
@@ -319,7 +306,8 @@ fn a_scene_without_dirichlet_data_names_the_rigid_motion_it_leaves_free() {
         "{}",
         notes[0]
     );
-    let (code, r, err) = estimate(&src.join("solution.vtu"), &[]);
+    let committed = root().join("fixtures/block_skfem_p1/solution.vtu");
+    let (code, r, err) = estimate(&committed, &[]);
     assert!(code == 0 || code == 1, "{err}");
     assert!(free_notes(&r.expect("a report")).is_empty());
 }
@@ -333,17 +321,11 @@ fn a_scene_without_dirichlet_data_names_the_rigid_motion_it_leaves_free() {
 /// patch stress is traction-free there to round-off and gets a finite bound.
 #[test]
 fn a_contact_edge_facing_away_from_the_obstacle_is_traction_free() {
-    let src = root().join("fixtures/exact_p1_energy");
-    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
     let left = "kind = \"neumann\"\ntraction = [\"14.630681818181827\", \"0.0\"]";
-    assert!(scene.contains(left), "the fixture's scene changed");
     let away = "kind = \"contact\"\n\
                 obstacle = { plane = { point = [0.0, 0.0], normal = [0.0, 1.0] } }\n\
                 normal = \"body\"";
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(src.join("solution.vtu"), dir.path().join("solution.vtu")).unwrap();
-    std::fs::write(dir.path().join("scene.toml"), scene.replace(left, away)).unwrap();
-    let file = dir.path().join("solution.vtu");
+    let (_dir, file) = fixture_with_scene("exact_p1_energy", left, away);
     let (code, r, err) = estimate(&file, &["--stress", "file", "--displacement", "file"]);
     assert!(code == 0 || code == 1, "{err}");
     let r = r.expect("a report");

@@ -26,7 +26,7 @@ use crate::geometry::{Family, MAX_NODES, facet_point};
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{BoundaryEdge, Condition, Context};
 use crate::quadrature::line_rule_cached;
-use crate::read::scene::{BoundaryKind, Contact as ContactSpec, Scene};
+use crate::read::scene::{BoundaryKind, Contact as ContactSpec, ContactNormal, Scene};
 use crate::tolerance::{
     CONTACT_TRACTION_RELATIVE, EDGE_DEGREE, EDGE_SAMPLES, STATE_RELATIVE, STICK_SLIP_RELATIVE,
 };
@@ -544,13 +544,16 @@ pub fn boundary_with(
                         acc.offer(v, f.at(s).x, inp.mesh.file_cell[t] as usize);
                     }
                 }
-                // σ_n where the gap is infinite (complementarity_density).
-                let (v, s) = maximum(|s: f64| {
-                    let p = q(s);
-                    if p.g.is_infinite() { p.sn.abs() } else { 0.0 }
-                });
-                if v > 0.0 && v.is_finite() {
-                    ten.offer(v, f.at(s).x, inp.mesh.file_cell[t] as usize);
+                // σ_n where the gap is infinite (complementarity_density): only the body's
+                // normal can miss the plane (−m always meets it).
+                if matches!(c.normal, ContactNormal::Body) {
+                    let (v, s) = maximum(|s: f64| {
+                        let p = q(s);
+                        if p.g.is_infinite() { p.sn.abs() } else { 0.0 }
+                    });
+                    if v > 0.0 && v.is_finite() {
+                        ten.offer(v, f.at(s).x, inp.mesh.file_cell[t] as usize);
+                    }
                 }
 
                 if e.line != NONE {

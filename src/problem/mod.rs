@@ -94,15 +94,9 @@ pub fn free_rigid_motions(ctx: &Context) -> Vec<String> {
             _ => {}
         }
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in &mesh.points {
-        for c in 0..2 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    let x0 = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-    let half = (0.5 * (hi[0] - lo[0])).max(0.5 * (hi[1] - lo[1]));
+    let [xa, ya, xb, yb] = mesh.bounding_box();
+    let x0 = [0.5 * (xa + xb), 0.5 * (ya + yb)];
+    let half = (0.5 * (xb - xa)).max(0.5 * (yb - ya));
     if !(half > 0.0 && half.is_finite()) {
         return Vec::new();
     }

@@ -28,3 +28,17 @@ pub fn estimate(file: &Path, args: &[&str]) -> (i32, Option<Report>, String) {
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
 }
+
+/// A copy of `fixtures/<case>/solution.vtu` in a temporary folder, with the fixture's scene
+/// beside it where the first `from` is replaced by `to` (panics if the scene has no `from`:
+/// the fixture changed). Returns the folder (dropped = removed) and the copied solution's path.
+pub fn fixture_with_scene(case: &str, from: &str, to: &str) -> (tempfile::TempDir, PathBuf) {
+    let src = root().join("fixtures").join(case);
+    let scene = std::fs::read_to_string(src.join("scene.toml")).unwrap();
+    assert!(scene.contains(from), "{case}: the fixture's scene changed");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("solution.vtu");
+    std::fs::copy(src.join("solution.vtu"), &file).unwrap();
+    std::fs::write(dir.path().join("scene.toml"), scene.replacen(from, to, 1)).unwrap();
+    (dir, file)
+}
