@@ -265,6 +265,20 @@ pub const CONDENSATION_RANK: f64 = 1e-10;
 /// its norm is dependent (dropped; its consistency shows in the defect).
 pub const PATCH_DEPENDENT_ROW: f64 = 1e-10;
 
+/// The 2 × 2 block of a cell's P_1 weak-symmetry rows at its free interior values (RT_2,
+/// `patch::eliminate_kernel`) counts as singular when |det| is below this fraction of its
+/// largest entry squared. On a straight cell the block is −(∫_T b)·(the gradients of ξ − ⅓,
+/// η − ⅓), regular with |det| ≈ its entries squared up to the cell's aspect ratio (1e-4 at
+/// aspect 1e4): the cut only catches degenerate cells, which are then solved without those rows.
+pub const KERNEL_PIVOT_RELATIVE: f64 = 1e-12;
+
+/// The largest cond(J) of a straight cell whose free interior values are eliminated through its
+/// P_1 symmetry rows (`patch::eliminate_kernel`): the 2 × 2 inverse multiplies the round-off by
+/// cond(J). Up to 10 the patch results agree with the QP over all unknowns to round-off (bound
+/// of the 100k P2 bench field within 2e-9 relative); at aspect 1e3 an exact pair's bound rose
+/// from 3e-7 to 1.7e-5 of energy^½, so such cells keep their free values in the QP.
+pub const KERNEL_ELIMINATION_CONDITION: f64 = 10.0;
+
 /// A cell's rigid-motion moments of div τ + f, or the mean of as τ, count as zero below this
 /// fraction of their scale (∫ h|div τ| + h|f|, ∫|τ_xy| + |τ_yx|): the patch reconstruction
 /// meets them to ~1e-13, a non-equilibrated stress misses them by O(1).

@@ -53,7 +53,8 @@ use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
-    EDGE_DEGREE, EDGE_OPEN_SAMPLES, FLOW_PASSES, LOAD_DEGREE, MIN_CONE_FRICTION, OPEN_GAP_RELATIVE,
+    EDGE_DEGREE, EDGE_OPEN_SAMPLES, FLOW_PASSES, KERNEL_ELIMINATION_CONDITION,
+    KERNEL_PIVOT_RELATIVE, LOAD_DEGREE, MIN_CONE_FRICTION, OPEN_GAP_RELATIVE,
     PATCH_DEFECT_RELATIVE, PATCH_DEPENDENT_ROW,
 };
 
@@ -564,6 +565,27 @@ pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -
     by_colour
 }
 
+impl PatchOut {
+    /// The outcome of a patch whose P_1 symmetry rows cannot be met (`solve_patch` solves it
+    /// again without them).
+    fn higher_failed(unknowns: usize) -> PatchOut {
+        PatchOut {
+            solved: true,
+            cells: Vec::new(),
+            unknowns,
+            active: 0,
+            settled: false,
+            feasible: false,
+            defect: f64::INFINITY,
+            higher_defect: f64::INFINITY,
+            dropped_higher: false,
+            balance: [0.0; 3],
+            balance_scale: 0.0,
+            cannot_take: [[0.0; 3]; 3],
+        }
+    }
+}
+
 struct PatchOut {
     /// False when only the balance was computed (`solve_patch`'s `balance_only` on a patch
     /// whose balance does not depend on its unknowns): `cells` is empty.
@@ -960,8 +982,40 @@ fn solve_patch_rows(
     // Interior values: condensed (condense.rs), dim ker D_I free values per cell and row.
     let re = condense::reference(order);
     let (nloc, nedge, nq, nz, nred) = (re.nloc, re.nedge, re.nq, re.nz, re.nred);
-    let interior_base = nvar;
-    nvar += cells.len() * 2 * nz;
+    // With the P_1 symmetry rows and one free interior value per cell and row (RT_2), those
+    // two rows fix the cell's two free values given its edge values: they are eliminated in
+    // the cell (`eliminate_kernel`), which takes 2 unknowns and 2 rows per cell out of the
+    // patch QP (an equivalent problem: the other rows have exact zeros in those columns).
+    // Only on straight, well-shaped cells: H⁻¹ amplifies round-off by cond(H) = cond(J) there
+    // (at aspect 1e3 the bound of an exact pair rose from 3e-7 to 1.7e-5 of energy^½).
+    let eliminated: Vec<bool> = cells
+        .iter()
+        .map(|&(t, _)| {
+            let t = t as usize;
+            higher
+                && !quick
+                && nz == 1
+                && mesh.shape[t] == Shape::Affine
+                && well_shaped(
+                    sub_point(
+                        mesh.family[t],
+                        &mesh.coords(t)[..mesh.family[t].nodes()],
+                        Shape::Affine,
+                        0,
+                        [1.0 / 3.0; 2],
+                    )
+                    .jac
+                    .matrix,
+                )
+        })
+        .collect();
+    let mut kernel_first = Vec::with_capacity(cells.len());
+    for &e in &eliminated {
+        kernel_first.push(nvar);
+        if !e {
+            nvar += 2 * nz;
+        }
+    }
     let (nl, nr) = (2 * nloc, 2 * nred);
 
     // A balance-only patch assembles no matrix.
@@ -996,7 +1050,8 @@ fn solve_patch_rows(
             srow: [0.0; 2 * MAX_RT_DOFS],
             shi: [[0.0; 2 * MAX_RT_DOFS]; 2],
             asym: extra.get(ci).map_or(0.0, |e| e[3]),
-            kernel: interior_base + ci * 2 * nz,
+            kernel: kernel_first[ci],
+            eliminated: None,
             rigid: [[[0.0; 3]; 2]; 3],
         };
         // Local edge function (row r, DOF e) → affine expression in the unknowns.
@@ -1278,16 +1333,25 @@ fn solve_patch_rows(
                 }
             }
         }
+        let eliminate = eliminated[ci];
+        if eliminate {
+            match eliminate_kernel(re, &part.shi, &part.c0[..nl], &mut mred, &mut bred) {
+                Some(k) => part.eliminated = Some(k),
+                // A cell whose P_1 rows do not fix its free values (degenerate): the patch is
+                // solved again without those rows (`solve_patch`).
+                None => return PatchOut::higher_failed(nvar),
+            }
+        }
         // Reduced local unknown (row r, y) → patch unknowns: the edge value's terms, or the
         // cell's free interior value (borrowed, not copied: this runs for every cell of every
-        // patch).
+        // patch); none for an eliminated free value.
         let kernel_terms: [[(u32, f64); 1]; 2 * MAX_REDUCED] = std::array::from_fn(|a| {
             let (r, y) = (a / nred.max(1), a % nred.max(1));
             [((part.kernel + r * nz + y.saturating_sub(nedge)) as u32, 1.0)]
         });
         let rmap: [&[(u32, f64)]; 2 * MAX_REDUCED] = std::array::from_fn(|a| {
             let (r, y) = (a / nred.max(1), a % nred.max(1));
-            if a >= nr {
+            if a >= nr || (y >= nedge && eliminate) {
                 &[]
             } else if y < nedge {
                 part.emap[r][y].terms()
@@ -1348,7 +1412,11 @@ fn solve_patch_rows(
         }
         if weak_symmetry {
             // The constant row (right-hand side: the flows' as-moment), then the P_1 rows (0).
-            let nhigher = if higher { part.shi.len() } else { 0 };
+            let nhigher = if higher && !eliminate {
+                part.shi.len()
+            } else {
+                0
+            };
             let sym_rows = std::iter::once((&part.srow, part.asym))
                 .chain(part.shi[..nhigher].iter().map(|row| (row, 0.0)));
             for (which, (srow, rhs)) in sym_rows.enumerate() {
@@ -1409,18 +1477,31 @@ fn solve_patch_rows(
     for part in &parts {
         let full = |x: &[f64]| {
             let mut c = [[0.0; MAX_RT_DOFS]; 2];
+            let mut y = [[0.0; MAX_REDUCED]; 2];
             for r in 0..2 {
-                let mut y = [0.0; MAX_REDUCED];
                 for e in 0..nedge {
-                    y[e] = part.emap[r][e].value(x);
+                    y[r][e] = part.emap[r][e].value(x);
                 }
+            }
+            for r in 0..2 {
                 for mz in 0..nz {
-                    y[nedge + mz] = x[part.kernel + r * nz + mz];
+                    y[r][nedge + mz] = match &part.eliminated {
+                        None => x[part.kernel + r * nz + mz],
+                        Some(k) => {
+                            k.constant[r]
+                                + (0..2)
+                                    .flat_map(|s| (0..nedge).map(move |e| (s, e)))
+                                    .map(|(s, e)| k.map[r][s * nred + e] * y[s][e])
+                                    .sum::<f64>()
+                        }
+                    };
                 }
+            }
+            for r in 0..2 {
                 for (i, ci) in c[r].iter_mut().enumerate().take(nloc) {
                     *ci = part.c0[r * nloc + i]
                         + (0..nred)
-                            .map(|yy| re.transform[i * nred + yy] * y[yy])
+                            .map(|yy| re.transform[i * nred + yy] * y[r][yy])
                             .sum::<f64>();
                 }
             }
@@ -1802,10 +1883,119 @@ struct CellPart {
     /// Its right-hand side: the rotation moment this patch carries on T for its neighbours
     /// (the flows' as-moments; 0 without flows).
     asym: f64,
-    /// First patch unknown of the cell's free interior values (row r at + r·nz).
+    /// First patch unknown of the cell's free interior values (row r at + r·nz), unless
+    /// they are eliminated.
     kernel: usize,
+    /// The free interior values as functions of the edge values (`eliminate_kernel`).
+    eliminated: Option<KernelMap>,
     /// e_x, e_y, (x − x₀)^⊥/L in the moments 1, ξ, η per row (exact on straight cells).
     rigid: [[[f64; 3]; 2]; 3],
+}
+
+/// Whether a straight cell with Jacobian `j` has cond(J) ≤ [`KERNEL_ELIMINATION_CONDITION`]:
+/// with σ₁ ≥ σ₂ its singular values, ‖J‖²_F/|det J| = σ₁/σ₂ + σ₂/σ₁ = cond + 1/cond.
+fn well_shaped(j: [[f64; 2]; 2]) -> bool {
+    let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+    let frob = j[0][0] * j[0][0] + j[0][1] * j[0][1] + j[1][0] * j[1][0] + j[1][1] * j[1][1];
+    let c = KERNEL_ELIMINATION_CONDITION;
+    frob <= (c + 1.0 / c) * det.abs()
+}
+
+/// A cell's free interior values (one per row, nz = 1) as affine functions of its reduced
+/// edge values: y_k,r = Σ_a map[r][a] y_a + constant[r] (a over both rows, kernel slots 0).
+#[derive(Clone, Copy)]
+struct KernelMap {
+    map: [[f64; 2 * MAX_REDUCED]; 2],
+    constant: [f64; 2],
+}
+
+/// Eliminates the free interior values y_k (one per row) of a cell through its two P_1
+/// weak-symmetry rows: with those rows g_q·y = d_q in the reduced unknowns y = (y_e, y_k) and
+/// H = their y_k columns (2 × 2), y_k = K y_e + k_c with K = −H⁻¹G_e and k_c = H⁻¹d. On a
+/// straight cell H = −(∫_T b)(∇q̂ components), b the cubic bubble whose curl the free value
+/// is, so H is regular on every non-degenerate cell. With y = P y_e + p₀ the cell's reduced
+/// objective ½yᵀMy − bᵀy becomes ½y_eᵀ(PᵀMP)y_e − (Pᵀ(b − Mp₀))ᵀy_e + const, written over
+/// `mred` and `bred` with the y_k rows and columns zeroed. The other rows of the cell (the
+/// kept divergence rows, the constant symmetry row) have exact zeros in the y_k columns
+/// (condense.rs), so they are unchanged. None when H is singular to round-off.
+fn eliminate_kernel(
+    re: &condense::Reference,
+    shi: &[[f64; 2 * MAX_RT_DOFS]; 2],
+    c0: &[f64],
+    mred: &mut [f64],
+    bred: &mut [f64],
+) -> Option<KernelMap> {
+    let (nred, nedge) = (re.nred, re.nedge);
+    let nr = 2 * nred;
+    let kc = [nedge, nred + nedge];
+    let mut g = [[0.0; 2 * MAX_REDUCED]; 2];
+    let mut d = [0.0; 2];
+    for q in 0..2 {
+        condense::symmetry_row_reduced(re, &shi[q][..], false, &mut g[q]);
+        d[q] = -shi[q][..c0.len()]
+            .iter()
+            .zip(c0)
+            .map(|(a, b)| a * b)
+            .sum::<f64>();
+    }
+    let h = [[g[0][kc[0]], g[0][kc[1]]], [g[1][kc[0]], g[1][kc[1]]]];
+    let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+    let scale = h.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(det.abs() > KERNEL_PIVOT_RELATIVE * scale * scale && det.is_finite()) {
+        return None;
+    }
+    let hinv = [
+        [h[1][1] / det, -h[0][1] / det],
+        [-h[1][0] / det, h[0][0] / det],
+    ];
+    let mut k = KernelMap {
+        map: [[0.0; 2 * MAX_REDUCED]; 2],
+        constant: [0.0; 2],
+    };
+    for s in 0..2 {
+        k.constant[s] = hinv[s][0] * d[0] + hinv[s][1] * d[1];
+        for a in (0..nr).filter(|a| !kc.contains(a)) {
+            k.map[s][a] = -(hinv[s][0] * g[0][a] + hinv[s][1] * g[1][a]);
+        }
+    }
+    // b − M p₀ (p₀ = k_c in the y_k slots), from the original y_k columns.
+    let mut bc = [0.0; 2 * MAX_REDUCED];
+    for i in 0..nr {
+        bc[i] =
+            bred[i] - mred[i * nr + kc[0]] * k.constant[0] - mred[i * nr + kc[1]] * k.constant[1];
+    }
+    // M P (columns), then Pᵀ (M P) (rows); the y_k columns are read before they are zeroed.
+    for i in 0..nr {
+        let (m0, m1) = (mred[i * nr + kc[0]], mred[i * nr + kc[1]]);
+        if m0 == 0.0 && m1 == 0.0 {
+            continue;
+        }
+        for b in 0..nr {
+            if !kc.contains(&b) {
+                mred[i * nr + b] += m0 * k.map[0][b] + m1 * k.map[1][b];
+            }
+        }
+    }
+    for a in (0..nr).filter(|a| !kc.contains(a)) {
+        let (k0, k1) = (k.map[0][a], k.map[1][a]);
+        if k0 == 0.0 && k1 == 0.0 {
+            continue;
+        }
+        for b in (0..nr).filter(|b| !kc.contains(b)) {
+            mred[a * nr + b] += k0 * mred[kc[0] * nr + b] + k1 * mred[kc[1] * nr + b];
+        }
+    }
+    for a in (0..nr).filter(|a| !kc.contains(a)) {
+        bred[a] = bc[a] + k.map[0][a] * bc[kc[0]] + k.map[1][a] * bc[kc[1]];
+    }
+    for &c in &kc {
+        for i in 0..nr {
+            mred[i * nr + c] = 0.0;
+            mred[c * nr + i] = 0.0;
+        }
+        bred[c] = 0.0;
+    }
+    Some(k)
 }
 
 #[inline]
