@@ -1918,6 +1918,8 @@ struct KernelMap {
 /// `mred` and `bred` with the y_k rows and columns zeroed. The other rows of the cell (the
 /// kept divergence rows, the constant symmetry row) have exact zeros in the y_k columns
 /// (condense.rs), so they are unchanged. None when H is singular to round-off.
+// Index loops over (row, reduced unknown) mirror the formulas above.
+#[allow(clippy::needless_range_loop)]
 fn eliminate_kernel(
     re: &condense::Reference,
     shi: &[[f64; 2 * MAX_RT_DOFS]; 2],
