@@ -1966,25 +1966,25 @@ fn eliminate_kernel(
         bc[i] =
             bred[i] - mred[i * nr + kc[0]] * k.constant[0] - mred[i * nr + kc[1]] * k.constant[1];
     }
-    // M P (columns), then Pᵀ (M P) (rows); the y_k columns are read before they are zeroed.
+    // M P (columns), then Pᵀ (M P) (rows). The map is 0 at the y_k slots, so the column
+    // update leaves the y_k columns as they were; the row update runs over all columns
+    // (branch-free), and what it adds to the y_k columns is zeroed below.
     for i in 0..nr {
         let (m0, m1) = (mred[i * nr + kc[0]], mred[i * nr + kc[1]]);
-        if m0 == 0.0 && m1 == 0.0 {
-            continue;
-        }
-        for b in 0..nr {
-            if !kc.contains(&b) {
-                mred[i * nr + b] += m0 * k.map[0][b] + m1 * k.map[1][b];
-            }
+        let row = &mut mred[i * nr..(i + 1) * nr];
+        for ((v, a), b) in row.iter_mut().zip(&k.map[0][..nr]).zip(&k.map[1][..nr]) {
+            *v += m0 * a + m1 * b;
         }
     }
+    let kernel_row = |c: usize| -> [f64; 2 * MAX_REDUCED] {
+        std::array::from_fn(|b| if b < nr { mred[c * nr + b] } else { 0.0 })
+    };
+    let (k0row, k1row) = (kernel_row(kc[0]), kernel_row(kc[1]));
     for a in (0..nr).filter(|a| !kc.contains(a)) {
         let (k0, k1) = (k.map[0][a], k.map[1][a]);
-        if k0 == 0.0 && k1 == 0.0 {
-            continue;
-        }
-        for b in (0..nr).filter(|b| !kc.contains(b)) {
-            mred[a * nr + b] += k0 * mred[kc[0] * nr + b] + k1 * mred[kc[1] * nr + b];
+        let row = &mut mred[a * nr..(a + 1) * nr];
+        for ((v, p), q) in row.iter_mut().zip(&k0row[..nr]).zip(&k1row[..nr]) {
+            *v += k0 * p + k1 * q;
         }
     }
     for a in (0..nr).filter(|a| !kc.contains(a)) {
