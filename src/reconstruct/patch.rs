@@ -1561,7 +1561,8 @@ fn solve_patch_rows(
             balance_scale[2] += abs / length;
         }
         if !quick {
-            out_cells.push((part.t, full(&x)));
+            // `legal` is `x` itself without variables that must vanish.
+            out_cells.push((part.t, if zero_vars.is_empty() { c } else { full(&x) }));
         }
     }
     // Without the solve, the defect the solve would leave is the balance relative to its
