@@ -2010,6 +2010,88 @@ fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
 mod tests {
     use super::*;
 
+    /// Eliminating a cell's two free interior values through its two P_1 symmetry rows
+    /// (`eliminate_kernel`) must give the minimiser of the problem with those values free and
+    /// the rows as equality constraints: a random SPD reduced matrix and load on a straight
+    /// cell, with the cell's real rows (`higher_symmetry_rows`), both problems solved by the
+    /// patch QP.
+    #[test]
+    fn eliminated_free_values_give_the_constrained_minimiser() {
+        let re = condense::reference(RtOrder::Rt2);
+        let (nloc, nred, nedge) = (re.nloc, re.nred, re.nedge);
+        assert_eq!(re.nz, 1, "RT_2 has one free interior value per row");
+        let nr = 2 * nred;
+        let kc = [nedge, nred + nedge];
+        let x = [[0.1, -0.2], [1.3, 0.2], [0.4, 0.9]];
+        let shi = higher_symmetry_rows(re, RtOrder::Rt2, Family::Tri3, &x, Shape::Affine);
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rand = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        // M = AᵀA + I (SPD), b and c₀ random.
+        let a: Vec<f64> = (0..nr * nr).map(|_| rand()).collect();
+        let mut m = vec![0.0; nr * nr];
+        for i in 0..nr {
+            for j in 0..nr {
+                m[i * nr + j] = (0..nr).map(|k| a[k * nr + i] * a[k * nr + j]).sum::<f64>()
+                    + if i == j { 1.0 } else { 0.0 };
+            }
+        }
+        let b: Vec<f64> = (0..nr).map(|_| rand()).collect();
+        let c0: Vec<f64> = (0..2 * nloc).map(|_| rand()).collect();
+        let mut rows = vec![0.0; 2 * nr];
+        let mut d = [0.0; 2];
+        for q in 0..2 {
+            condense::symmetry_row_reduced(re, &shi[q][..], false, &mut rows[q * nr..]);
+            d[q] = -shi[q][..2 * nloc]
+                .iter()
+                .zip(&c0)
+                .map(|(s, c)| s * c)
+                .sum::<f64>();
+        }
+        for q in 0..2 {
+            assert!(
+                kc.iter().all(|&c| rows[q * nr + c] != 0.0),
+                "rows reach the free values"
+            );
+        }
+        let full = qp::solve(nr, &m, &b, &rows, &d, 2, &[]);
+        assert!(full.feasible && full.settled);
+        let (mut me, mut be) = (m.clone(), b.clone());
+        let k = eliminate_kernel(re, &shi, &c0, &mut me, &mut be).expect("a regular cell");
+        for &c in &kc {
+            assert!((0..nr).all(|i| me[i * nr + c] == 0.0 && me[c * nr + i] == 0.0));
+            assert_eq!(be[c], 0.0);
+            // A placeholder unknown (solved as 0) keeps the eliminated matrix regular.
+            me[c * nr + c] = 1.0;
+        }
+        let red = qp::solve(nr, &me, &be, &[], &[], 0, &[]);
+        let mut y = red.x.clone();
+        for r in 0..2 {
+            y[kc[r]] = k.constant[r] + (0..nr).map(|i| k.map[r][i] * red.x[i]).sum::<f64>();
+        }
+        let scale = full.x.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        for i in 0..nr {
+            assert!(
+                (y[i] - full.x[i]).abs() <= 1e-10 * scale,
+                "unknown {i}: eliminated {} against {}",
+                y[i],
+                full.x[i]
+            );
+        }
+        for q in 0..2 {
+            let g: f64 = (0..nr).map(|i| rows[q * nr + i] * y[i]).sum();
+            assert!(
+                (g - d[q]).abs() <= 1e-12 * (1.0 + d[q].abs()),
+                "row {q}: {g} ≠ {}",
+                d[q]
+            );
+        }
+    }
+
     /// The rotation shares of a P1 fixture with body force, Neumann, contact and Dirichlet
     /// edges: (1) they sum to 0 over each cell's vertices (Σ_a ψ_a (x − x_a)^⊥ = 0 pointwise and
     /// σ symmetric); (2) at an interior vertex a they sum over the patch to ∫_{ω_a} target·ρ_a,
