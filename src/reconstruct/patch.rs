@@ -2074,12 +2074,10 @@ mod tests {
             y[kc[r]] = k.constant[r] + (0..nr).map(|i| k.map[r][i] * red.x[i]).sum::<f64>();
         }
         let scale = full.x.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-        for i in 0..nr {
+        for (i, (yi, xi)) in y.iter().zip(&full.x).enumerate() {
             assert!(
-                (y[i] - full.x[i]).abs() <= 1e-10 * scale,
-                "unknown {i}: eliminated {} against {}",
-                y[i],
-                full.x[i]
+                (yi - xi).abs() <= 1e-10 * scale,
+                "unknown {i}: eliminated {yi} against {xi}"
             );
         }
         for q in 0..2 {
