@@ -991,34 +991,35 @@ fn solve_patch_rows(
     // not on patches with sign bounds: the QP's dependence tests are relative to (M⁻¹)_pp,
     // which the elimination changes, and with 𝔉 = 1e6 on the manufactured P2 mesh 9 contact
     // patches were left unmet instead of 5 (defect 7.9e-6 instead of 7.3e-10).
-    let eliminated: Vec<bool> = cells
-        .iter()
-        .map(|&(t, _)| {
-            let t = t as usize;
-            higher
-                && !quick
-                && bounded.is_empty()
-                && nz == 1
-                && mesh.shape[t] == Shape::Affine
-                && well_shaped(
-                    sub_point(
-                        mesh.family[t],
-                        &mesh.coords(t)[..mesh.family[t].nodes()],
-                        Shape::Affine,
-                        0,
-                        [1.0 / 3.0; 2],
-                    )
-                    .jac
-                    .matrix,
-                )
-        })
-        .collect();
+    // Per cell, computed once: the Jacobian at the centroid of a straight cell in a solved
+    // patch (the reduced mass matrix below, and the shape test here), and the first patch
+    // unknown of its free values (unused when they are eliminated).
+    let mut centre_jac = Vec::with_capacity(cells.len());
+    let mut eliminated = Vec::with_capacity(cells.len());
     let mut kernel_first = Vec::with_capacity(cells.len());
-    for &e in &eliminated {
+    for &(t, _) in cells {
+        let t = t as usize;
+        let fam = mesh.family[t];
+        let jac = (!quick && mesh.shape[t] == Shape::Affine).then(|| {
+            sub_point(
+                fam,
+                &mesh.coords(t)[..fam.nodes()],
+                Shape::Affine,
+                0,
+                [1.0 / 3.0; 2],
+            )
+            .jac
+        });
+        let eliminate = higher
+            && bounded.is_empty()
+            && nz == 1
+            && jac.as_ref().is_some_and(|j| well_shaped(j.matrix));
         kernel_first.push(nvar);
-        if !e {
+        if !eliminate {
             nvar += 2 * nz;
         }
+        centre_jac.push(jac);
+        eliminated.push(eliminate);
     }
     let (nl, nr) = (2 * nloc, 2 * nred);
 
@@ -1276,7 +1277,7 @@ fn solve_patch_rows(
         if affine {
             // Within the straightness tolerance of `Shape::Affine`, the Jacobian at the
             // centroid: the mass matrix only chooses among the equilibrated stresses.
-            let jac = sub_point(fam, &x[..fam.nodes()], sh, 0, [1.0 / 3.0; 2]).jac;
+            let jac = centre_jac[ci].expect("a straight cell of a solved patch");
             let mut tmc0 = [0.0; 2 * MAX_REDUCED];
             condense::affine_reduced_form(
                 re,
