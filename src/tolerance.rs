@@ -176,6 +176,12 @@ pub const PIVOT_FLOOR: f64 = 1e-12;
 /// 3–5 steps on boundary-fitted meshes.
 pub const INVERSE_MAP_STEP: f64 = 2e-15;
 
+/// The diagonal node of a quadrilateral's triangle halves (`estimate::halves`) must be the
+/// image of the inverse map's point to this fraction of the cell's diameter: converged Newton
+/// steps reach round-off (1e-15), so a larger miss means the chord midpoint lies outside the
+/// cell (a non-convex quadrilateral), where u_h is not defined.
+pub const HALVES_DIAGONAL_MISS_RELATIVE: f64 = 1e-9;
+
 /// Cap on the Newton steps of the inverse cell map.
 pub const INVERSE_MAP_ITERATIONS: usize = 30;
 

@@ -584,11 +584,12 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     };
     // Patch equilibration (triangles, λ < ∞, k ≥ 1) when asked for: the stress the bound
     // needs; the global minimiser otherwise.
+    // On quadrilaterals the patch stress lives on the triangle halves and serves the bound
+    // (`estimate::halves`); F there uses the global minimiser.
+    let quads = data.mesh.has_quads();
     let use_patch = match opts.stress {
-        Source::Patch => true,
-        Source::Auto => {
-            !data.mesh.family.iter().any(|f| f.is_quad()) && ctx.elastic.lambda.is_finite()
-        }
+        Source::Patch => !quads,
+        Source::Auto => !quads && ctx.elastic.lambda.is_finite(),
         _ => false,
     };
     let patch_order = opts.degree.map_or_else(
@@ -629,6 +630,14 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                 }
             }
         }
+        Some(_) if quads && opts.stress == Source::Patch => (
+            None,
+            Some(
+                "quadrilateral cells: the patch stress is built on the triangle halves, for the \
+                 bound (design §6.7); F uses the global minimiser on the quadrilaterals"
+                    .to_string(),
+            ),
+        ),
         _ => (None, None),
     };
     // Improvement sweeps of the patch stress (design §5.10, "Sweeps"): the same constraints,
@@ -713,8 +722,29 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         _ => unreachable!("a stress that is not nodal is reconstructed"),
     };
 
+    // The bound on quadrilaterals: on the triangle halves (design §6.7).
+    let halves_bound = (quads
+        && matches!(opts.stress, Source::Auto | Source::Patch)
+        && ctx.elastic.lambda.is_finite())
+    .then(|| {
+        progress.stage("bounding the error on the triangle halves");
+        let b = estimate::halves::bound(
+            &ctx,
+            &data,
+            u,
+            patch_order,
+            opts.sweeps.unwrap_or(reconstruct::sweep::DEFAULT_SWEEPS),
+        );
+        progress.done();
+        lap("bound (triangle halves)", &mut stages);
+        b
+    });
     progress.stage("evaluating the functional");
     let mut est: Estimate = estimate::run(&ctx, u, sigma);
+    if let Some(b) = halves_bound {
+        est.bound = b;
+        est.bound.set_reference_energy(est.energy);
+    }
     if let Some(p) = &projection {
         est.bound.add_projection(p.distance);
     }

@@ -77,6 +77,11 @@ pub struct BoundTerms {
     /// |||z|||), "hypercircle" or "hypercircle-quadratic" (docs/design.md §6.2 "Combination").
     #[serde(default)]
     pub combination: String,
+    /// |||ũ_h − u_h|||: on a mesh with quadrilaterals the bound is taken for the P2
+    /// interpolant ũ_h on the triangle halves (`estimate::halves`, design §6.7), and this
+    /// distance is added like the projection distance.
+    #[serde(default)]
+    pub halves: f64,
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
@@ -113,11 +118,34 @@ impl Bound {
             return;
         };
         t.projection += distance;
+        self.refresh();
+    }
+
+    /// The bound taken for ũ_h on the triangle halves, made one for u_h on the parent mesh
+    /// (design §6.7): |||u − u_h||| ≤ |||u − ũ_h||| + `distance`.
+    pub fn add_halves(&mut self, distance: f64) {
+        let Some(t) = self.terms.as_mut() else {
+            return;
+        };
+        t.halves += distance;
+        self.refresh();
+    }
+
+    /// `relative` against `energy` (the energy of u_h where the bound was taken for another
+    /// displacement: ũ_h on the triangle halves).
+    pub fn set_reference_energy(&mut self, energy: f64) {
+        self.energy = energy;
+        self.refresh();
+    }
+
+    /// `energy_error` and `relative` from the terms.
+    fn refresh(&mut self) {
+        let Some(t) = self.terms.as_ref() else {
+            return;
+        };
         if let Some(e) = self.energy_error.as_mut() {
             *e = energy_error(t);
-            if self.energy > 0.0 {
-                self.relative = Some(*e / self.energy.sqrt());
-            }
+            self.relative = (self.energy > 0.0).then(|| *e / self.energy.sqrt());
         }
     }
 }
@@ -160,9 +188,10 @@ fn combine(t: &BoundTerms) -> (f64, &'static str) {
     )
 }
 
-/// (½)^½ (E + ‖v − u_h‖_E), E from [`combine`].
+/// (½)^½ (E + ‖v − u_h‖_E + |||ũ_h − u_h|||), E from [`combine`] (the last term only on
+/// the triangle halves of a mesh with quadrilaterals).
 fn energy_error(t: &BoundTerms) -> f64 {
-    0.5f64.sqrt() * (combine(t).0 + t.projection)
+    0.5f64.sqrt() * (combine(t).0 + t.projection + t.halves)
 }
 
 /// j₁,₁ ≈ 3.8317, the first positive root of the Bessel function J₁: on a triangle T of
@@ -652,6 +681,7 @@ pub fn bound(
             / c_min)
             .sqrt(),
         combination: String::new(),
+        halves: 0.0,
         korn_max,
         symmetrised_cells: cells.iter().filter(|c| c.symmetrised).count(),
     };

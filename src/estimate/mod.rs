@@ -195,6 +195,7 @@ pub mod bound;
 pub mod boundary;
 pub mod bubble;
 pub mod data;
+pub mod halves;
 pub mod interior;
 pub mod lift;
 pub mod reaction;

@@ -397,6 +397,14 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             n(t.projection),
             num(t.korn_max, 3)
         );
+        if t.halves > 0.0 {
+            let _ = writeln!(
+                o,
+                "  taken on the triangle halves of the quadrilaterals: |||ũ_h − u_h||| = {} added \
+                 (design §6.7)",
+                n(t.halves)
+            );
+        }
     }
     if let Some(r) = b.relative {
         let _ = writeln!(o, "  relative: {} ({} %)", n(r), num(100.0 * r, 4));

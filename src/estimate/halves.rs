@@ -1,0 +1,535 @@
+//! The bound on meshes with quadrilateral cells (docs/design.md §6.7): computed on the
+//! triangle halves.
+//!
+//! Every quadrilateral is cut along its diagonal from vertex 0 to vertex 2 into the two halves
+//! of [`sub_nodes`] (straight, or isoparametric P2 with the cell's edge nodes and the chord
+//! midpoint on the diagonal when the cell is curved), and every cell becomes a P2 triangle.
+//! The displacement on the halves is ũ_h, the P2 interpolant of u_h at their nodes. The
+//! patch equilibration and the bound of §6 then run on this triangle mesh, and
+//!
+//! ```text
+//! |||u − u_h||| ≤ |||u − ũ_h||| + |||ũ_h − u_h|||
+//! ```
+//!
+//! adds the interpolation distance, computed here by quadrature on the halves.
+//!
+//! Why ũ_h keeps the admissibility of u_h: on every edge of the quadrilateral mesh the trace
+//! of u_h is a polynomial of degree ≤ 2 in the edge's own parameter (Q1: linear; Q2 and the
+//! serendipity element: quadratic), and the half's edge carries the same nodes with the same
+//! parametrisation, so the P2 interpolant has the same trace. Non-penetration, the Dirichlet
+//! data and the complementarity pairing are those of u_h. Only the interior changes: on a
+//! parallelogram a Q1 field is a quadratic polynomial and ũ_h = u_h exactly; on other cells
+//! the distance is what the bound pays for the split.
+
+use crate::geometry::values::{invert, jacobian, sub_point};
+use crate::geometry::{Family, MAX_NODES, Shape};
+use crate::mesh::{Dataset, Mesh, MeshReport, NONE};
+use crate::problem::{BoundaryEdge, Context};
+use crate::quadrature::triangle_rule_cached;
+use crate::topology::Topology;
+
+/// The triangle split of a mesh and the displacement on it.
+pub struct Halves {
+    pub data: Dataset,
+    pub topo: Topology,
+    /// The parent's boundary edges, each as the sub-edges that cover it, ascending by edge.
+    pub edges: Vec<BoundaryEdge>,
+    /// ũ_h at the split's nodes (the parent's points first, in their order).
+    pub u: Vec<[f64; 2]>,
+    /// The parent cell of each triangle (ascending).
+    pub parent: Vec<u32>,
+    /// The parent reference coordinates of each triangle's vertices: ξ_parent = r₀ + ξ̂₀(r₁ −
+    /// r₀) + ξ̂₁(r₂ − r₀) is the starting guess of the inverse map at its point ξ̂ (exact on
+    /// affine parents).
+    pub reference: Vec<[[f64; 2]; 3]>,
+    /// Sub-squares per side of each quadrilateral (and sub-triangles per side of each
+    /// triangle).
+    pub m: usize,
+}
+
+/// Sub-squares per side of each quadrilateral in the split (`split`'s `m`): 1, the two halves.
+///
+/// Measured against m = 3 on the manufactured family (exact solution known): ũ_h, the P2
+/// interpolant of a Q2 or serendipity field, misses it by O(h_sub²), and with the halves alone
+/// the distance is 1.35–1.40 × the true error (index 3.0–3.3 on Q2 and S2), against 0.15 ×
+/// with m = 3 (index 1.96–2.51). But m > 1 puts new nodes on the boundary edges, where ũ_h
+/// takes u_h's trace between the parent's nodes: the nodal admissibility that u_h meets only at
+/// its own nodes then fails there (penetration up to 4.5e-6 on the Hertz Q2 file, the
+/// Dirichlet expression missed by up to 4.4e-5), the bound loses its guarantee and the
+/// Prager–Synge term of the Hertz Q2 file rose from 0.031 to 0.145. `split` builds any m.
+pub const SUB_SQUARES: usize = 1;
+
+/// The lattice point (a, b) of a cell on the reference grid of spacing 1/(2m) (the nodes of
+/// its P2 sub-triangles), in the parent's reference coordinates.
+fn lattice_point(a: usize, b: usize, m: usize) -> [f64; 2] {
+    let d = (2 * m) as f64;
+    [a as f64 / d, b as f64 / d]
+}
+
+/// The parent edge under lattice point (a, b) of a cell with `nv` vertices and its local
+/// parameter there (from local vertex l to l + 1), or `None` off the edges and at vertices.
+fn on_edge(a: usize, b: usize, n2: usize, nv: usize) -> Option<(usize, usize)> {
+    let corner = |x: usize, y: usize| (x == 0 || x == n2) && (y == 0 || y == n2);
+    if nv == 4 {
+        if corner(a, b) {
+            return None;
+        }
+        match (a, b) {
+            (_, 0) => Some((0, a)),
+            (x, _) if x == n2 => Some((1, b)),
+            (_, y) if y == n2 => Some((2, n2 - a)),
+            (0, _) => Some((3, n2 - b)),
+            _ => None,
+        }
+    } else {
+        if (a, b) == (0, 0) || (a, b) == (n2, 0) || (a, b) == (0, n2) {
+            return None;
+        }
+        if b == 0 {
+            Some((0, a))
+        } else if a + b == n2 {
+            Some((1, b))
+        } else if a == 0 {
+            Some((2, n2 - b))
+        } else {
+            None
+        }
+    }
+}
+
+/// The triangle split of the mesh of `ctx` (P2 triangles; m × m sub-squares per
+/// quadrilateral, each cut along its diagonal from corner 0 to 2, and m² sub-triangles per
+/// triangle) and ũ_h of `u` on it (module doc; design §6.7).
+///
+/// Nodes on the parent's edges are computed once per edge, from the edge's own trace (linear,
+/// or the quadratic through its mid node, the same curve and parametrisation every cell of a
+/// conforming mesh has there), so neighbours share them and ũ_h keeps u_h's traces. Inside a
+/// triangle every node is the image of its lattice point (a P2 map composed with an affine one
+/// is P2: ũ_h = u_h and the geometry is exact). Inside a quadrilateral the sub-triangles'
+/// vertices are images of lattice points and their other nodes are straight midpoints: the
+/// sub-triangles are straight except along a curved parent edge, and ũ_h there is u_h at the
+/// parent point found by the inverse map.
+pub fn split(
+    ctx: &Context,
+    data: &Dataset,
+    u: &[[f64; 2]],
+    m: usize,
+) -> Result<Halves, String> {
+    let mesh = ctx.mesh;
+    let topo = ctx.topo;
+    let n2 = 2 * m;
+    let mut points = mesh.points.clone();
+    let mut uh = u.to_vec();
+    // Nodes on each parent edge at global parameters j/(2m), j = 1 … 2m − 1.
+    let mut edge_nodes: Vec<u32> = Vec::with_capacity(topo.edges.len() * (n2 - 1));
+    for (e, &[a, b]) in topo.edges.iter().enumerate() {
+        let (a, b) = (a as usize, b as usize);
+        let mid = topo.edge_mid[e];
+        for j in 1..n2 {
+            if j == m && mid != NONE {
+                edge_nodes.push(mid);
+                continue;
+            }
+            let s = j as f64 / n2 as f64;
+            let w: [f64; 3] = if mid == NONE {
+                [1.0 - s, s, 0.0]
+            } else {
+                [
+                    (1.0 - s) * (1.0 - 2.0 * s),
+                    s * (2.0 * s - 1.0),
+                    4.0 * s * (1.0 - s),
+                ]
+            };
+            let c = if mid == NONE { 0 } else { mid as usize };
+            let comb = |v: &[[f64; 2]]| {
+                std::array::from_fn(|i| w[0] * v[a][i] + w[1] * v[b][i] + w[2] * v[c][i])
+            };
+            edge_nodes.push(points.len() as u32);
+            points.push(comb(&mesh.points));
+            uh.push(comb(u));
+        }
+    }
+    let mut cells = Vec::with_capacity(2 * m * m * mesh.len());
+    let mut parent = Vec::with_capacity(cells.capacity());
+    let mut reference = Vec::with_capacity(cells.capacity());
+    // (cell, local edge) of each triangle edge on parent edge l, per parent cell.
+    let mut on_parent: Vec<[Vec<(u32, u8)>; 4]> = Vec::with_capacity(mesh.len());
+    let mut lattice = vec![NONE; (n2 + 1) * (n2 + 1)];
+    for t in 0..mesh.len() {
+        let fam = mesh.family[t];
+        let nodes = mesh.nodes(t);
+        let x = mesh.coords(t);
+        let n = fam.nodes();
+        let nv = fam.vertices();
+        let quad = fam.is_quad();
+        let affine = mesh.shape[t] == Shape::Affine;
+        let idx = |a: usize, b: usize| a * (n2 + 1) + b;
+        let value = |xi: [f64; 2]| {
+            let (phi, _) = fam.shape(xi);
+            let mut r = [[0.0; 2]; 2];
+            for (i, &p) in nodes.iter().enumerate() {
+                for c in 0..2 {
+                    r[0][c] += phi[i] * x[i][c];
+                    r[1][c] += phi[i] * u[p as usize][c];
+                }
+            }
+            (r[0], r[1])
+        };
+        // The lattice: vertices, edge nodes, then the interior.
+        for a in 0..=n2 {
+            for b in 0..=n2 {
+                if !quad && a + b > n2 {
+                    continue;
+                }
+                let corner = match (quad, a, b) {
+                    (_, 0, 0) => Some(0),
+                    (_, x, 0) if x == n2 => Some(1),
+                    (true, x, y) if x == n2 && y == n2 => Some(2),
+                    (true, 0, y) if y == n2 => Some(3),
+                    (false, 0, y) if y == n2 => Some(2),
+                    _ => None,
+                };
+                let node = if let Some(v) = corner {
+                    nodes[v]
+                } else if let Some((l, sl)) = on_edge(a, b, n2, nv) {
+                    let e = topo.cell_edges[t][l] as usize;
+                    let j = if topo.cell_edge_sign[t][l] > 0 {
+                        sl
+                    } else {
+                        n2 - sl
+                    };
+                    edge_nodes[e * (n2 - 1) + j - 1]
+                } else if !quad || (a % 2 == 0 && b % 2 == 0) {
+                    let (p, v) = value(lattice_point(a, b, m));
+                    points.push(p);
+                    uh.push(v);
+                    (points.len() - 1) as u32
+                } else {
+                    NONE
+                };
+                lattice[idx(a, b)] = node;
+            }
+        }
+        if quad {
+            // The straight midpoints inside: between the two lattice vertices of the sub-edge
+            // (horizontal, vertical, or the sub-square's diagonal from its corner 0 to 2).
+            for a in 1..n2 {
+                for b in 1..n2 {
+                    if a % 2 == 0 && b % 2 == 0 {
+                        continue;
+                    }
+                    let (p, q) = match (a % 2, b % 2) {
+                        (1, 0) => ((a - 1, b), (a + 1, b)),
+                        (0, 1) => ((a, b - 1), (a, b + 1)),
+                        _ => ((a - 1, b - 1), (a + 1, b + 1)),
+                    };
+                    let (xp, xq) = (
+                        points[lattice[idx(p.0, p.1)] as usize],
+                        points[lattice[idx(q.0, q.1)] as usize],
+                    );
+                    let target = [0.5 * (xp[0] + xq[0]), 0.5 * (xp[1] + xq[1])];
+                    let guess = lattice_point(a, b, m);
+                    let xi = if affine {
+                        guess
+                    } else {
+                        invert(fam, &x[..n], target, guess)
+                    };
+                    let (back, v) = value(xi);
+                    let miss = (back[0] - target[0]).abs() + (back[1] - target[1]).abs();
+                    let scale = crate::geometry::diameter(fam, &x[..n]);
+                    if !(miss <= crate::tolerance::HALVES_DIAGONAL_MISS_RELATIVE * scale) {
+                        return Err(format!(
+                            "cell {}: a node of its triangle split is not inside the cell (the \
+                             inverse map missed it by {miss:.1e})",
+                            mesh.file_cell[t]
+                        ));
+                    }
+                    points.push(target);
+                    uh.push(v);
+                    lattice[idx(a, b)] = (points.len() - 1) as u32;
+                }
+            }
+        }
+        let mut edges_here: [Vec<(u32, u8)>; 4] = Default::default();
+        let mut push = |c: [(usize, usize); 6], on: [Option<usize>; 3]| {
+            let mut cell = [NONE; MAX_NODES];
+            for (k, &(a, b)) in c.iter().enumerate() {
+                cell[k] = lattice[idx(a, b)];
+            }
+            let index = cells.len() as u32;
+            for (local, l) in on.iter().enumerate() {
+                if let Some(l) = l {
+                    edges_here[*l].push((index, local as u8));
+                }
+            }
+            cells.push(cell);
+            parent.push(t as u32);
+            reference.push([0, 1, 2].map(|k| lattice_point(c[k].0, c[k].1, m)));
+        };
+        for i in 0..m {
+            for j in 0..m {
+                let (a, b) = (2 * i, 2 * j);
+                if quad {
+                    push(
+                        [
+                            (a, b),
+                            (a + 2, b),
+                            (a + 2, b + 2),
+                            (a + 1, b),
+                            (a + 2, b + 1),
+                            (a + 1, b + 1),
+                        ],
+                        [(j == 0).then_some(0), (i == m - 1).then_some(1), None],
+                    );
+                    push(
+                        [
+                            (a, b),
+                            (a + 2, b + 2),
+                            (a, b + 2),
+                            (a + 1, b + 1),
+                            (a + 1, b + 2),
+                            (a, b + 1),
+                        ],
+                        [None, (j == m - 1).then_some(2), (i == 0).then_some(3)],
+                    );
+                } else if i + j < m {
+                    push(
+                        [
+                            (a, b),
+                            (a + 2, b),
+                            (a, b + 2),
+                            (a + 1, b),
+                            (a + 1, b + 1),
+                            (a, b + 1),
+                        ],
+                        [
+                            (j == 0).then_some(0),
+                            (i + j == m - 1).then_some(1),
+                            (i == 0).then_some(2),
+                        ],
+                    );
+                    if i + j + 1 < m {
+                        push(
+                            [
+                                (a + 2, b),
+                                (a + 2, b + 2),
+                                (a, b + 2),
+                                (a + 2, b + 1),
+                                (a + 1, b + 2),
+                                (a + 1, b + 1),
+                            ],
+                            [None, None, None],
+                        );
+                    }
+                }
+            }
+        }
+        on_parent.push(edges_here);
+        lattice.iter_mut().for_each(|v| *v = NONE);
+    }
+    let family = vec![Family::Tri6; cells.len()];
+    let shape = cells
+        .iter()
+        .map(|c| {
+            let x: Vec<[f64; 2]> = c[..6].iter().map(|&p| points[p as usize]).collect();
+            crate::geometry::classify(Family::Tri6, &x, crate::tolerance::CURVED_RELATIVE)
+        })
+        .collect();
+    let file_cell = parent.iter().map(|&t| mesh.file_cell[t as usize]).collect();
+    // The parent's line cells are whole edges of the split only when m = 1; the boundary
+    // conditions are carried over edge by edge below, so the split needs none.
+    let split_mesh = Mesh {
+        points,
+        degree: 2,
+        cells,
+        family,
+        shape,
+        lines: Vec::new(),
+        file_cell,
+        line_cell: Vec::new(),
+    };
+    let sub = Dataset {
+        path: data.path.clone(),
+        mesh: split_mesh,
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
+        line_data: Vec::new(),
+        report: MeshReport::default(),
+    };
+    let sub_topo = crate::topology::build(&sub).map_err(|e| e.to_string())?;
+    let mut edges: Vec<BoundaryEdge> = ctx
+        .edges
+        .iter()
+        .flat_map(|be| {
+            on_parent[be.cell as usize][be.local as usize]
+                .iter()
+                .map(|&(cell, local)| BoundaryEdge {
+                    edge: sub_topo.cell_edges[cell as usize][local as usize],
+                    cell,
+                    local,
+                    line: NONE,
+                    condition: be.condition,
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    edges.sort_by_key(|be| be.edge);
+    if let Some(be) = edges
+        .iter()
+        .find(|be| !sub_topo.is_boundary(be.edge as usize))
+    {
+        return Err(format!(
+            "cell {}: a boundary edge of the mesh is interior to its triangle split",
+            sub.mesh.file_cell[be.cell as usize]
+        ));
+    }
+    Ok(Halves {
+        data: sub,
+        topo: sub_topo,
+        edges,
+        u: uh,
+        parent,
+        reference,
+        m,
+    })
+}
+
+/// Degree of the rule of [`distance`]: on a parallelogram u_h is a polynomial of degree ≤ 4
+/// (Q2), so |ε(ũ_h − u_h)|² has degree ≤ 6; on other cells it is rational, and the rule is
+/// taken well above that.
+const DISTANCE_DEGREE_AFFINE: usize = 6;
+const DISTANCE_DEGREE_OTHER: usize = 12;
+
+/// |||ũ_h − u_h||| = (Σ_T (Cε(ũ_h − u_h), ε(ũ_h − u_h))_T)^½ over the split of the
+/// quadrilaterals (zero on triangles, where ũ_h is u_h), with u_h at each point through the
+/// inverse map of its parent.
+pub fn distance(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> f64 {
+    use rayon::prelude::*;
+    let mesh = ctx.mesh;
+    let sub = &halves.data.mesh;
+    let el = ctx.elastic;
+    let squares: f64 = (0..sub.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|s| {
+            let t = halves.parent[s] as usize;
+            let fam = mesh.family[t];
+            if !fam.is_quad() {
+                return 0.0;
+            }
+            let x = mesh.coords(t);
+            let n = fam.nodes();
+            let sh = mesh.shape[t];
+            let xs = sub.coords(s);
+            let [r0, r1, r2] = halves.reference[s];
+            let deg = if sh == Shape::Affine {
+                DISTANCE_DEGREE_AFFINE
+            } else {
+                DISTANCE_DEGREE_OTHER
+            };
+            let rule = triangle_rule_cached(deg);
+            let mut acc = 0.0;
+            for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+                let half = sub_point(Family::Tri6, &xs[..6], sub.shape[s], 0, xi);
+                let guess = std::array::from_fn(|c| {
+                    r0[c] + xi[0] * (r1[c] - r0[c]) + xi[1] * (r2[c] - r0[c])
+                });
+                let xp = if sh == Shape::Affine {
+                    guess
+                } else {
+                    invert(fam, &x[..n], half.x, guess)
+                };
+                let (_, g) = fam.shape(xp);
+                let jp = jacobian(&x[..n], n, &g);
+                let mut gp = [[0.0; 2]; 2];
+                for (i, &p) in mesh.nodes(t).iter().enumerate() {
+                    let gi = jp.physical_gradient(g[i]);
+                    for a in 0..2 {
+                        gp[a][0] += u[p as usize][a] * gi[0];
+                        gp[a][1] += u[p as usize][a] * gi[1];
+                    }
+                }
+                let gh = half.gradient_at(sub.nodes(s), &halves.u);
+                let d = [
+                    gh[0][0] - gp[0][0],
+                    gh[0][1] - gp[0][1],
+                    gh[1][0] - gp[1][0],
+                    gh[1][1] - gp[1][1],
+                ];
+                let sym = 0.5 * (d[1] + d[2]);
+                let eps = [d[0], sym, sym, d[3]];
+                let st = el.stress(eps);
+                let density: f64 = (0..4).map(|i| st[i] * eps[i]).sum();
+                acc += wq * half.jac.det * density;
+            }
+            acc
+        })
+        .sum();
+    squares.max(0.0).sqrt()
+}
+
+/// The bound for u_h on a mesh with quadrilaterals (design §6.7): the patch equilibration
+/// (`order`, then `sweeps` improvement sweeps) and the bound of §6 for ũ_h on the halves,
+/// plus |||ũ_h − u_h|||. `relative` is still against ũ_h's energy: the caller sets u_h's
+/// ([`super::bound::Bound::set_reference_energy`]). The per-cell contributions are summed
+/// over each parent's halves.
+pub fn bound(
+    ctx: &Context,
+    data: &Dataset,
+    u: &[[f64; 2]],
+    order: crate::element::rt::RtOrder,
+    sweeps: usize,
+) -> super::bound::Bound {
+    let refused = |why: String| super::bound::Bound {
+        statement: format!("no bound: {why}"),
+        failed_hypotheses: vec![why],
+        ..Default::default()
+    };
+    let halves = match split(ctx, data, u, SUB_SQUARES) {
+        Ok(h) => h,
+        Err(why) => return refused(format!("the triangle halves of the mesh: {why}")),
+    };
+    let mut sub = Context::new(
+        &halves.data.mesh,
+        &halves.topo,
+        ctx.scene,
+        &halves.edges,
+        ctx.norm,
+    );
+    sub.length_scale = ctx.length_scale;
+    let mut r = match crate::reconstruct::patch::reconstruct(&sub, &halves.u, order) {
+        Ok(r) => r,
+        Err(why) => {
+            return refused(format!(
+                "the patch reconstruction on the triangle halves failed ({why})"
+            ));
+        }
+    };
+    if sweeps > 0 {
+        crate::reconstruct::sweep::sweep(
+            &sub,
+            &halves.u,
+            &mut r.stress,
+            r.info.weak_symmetry,
+            sweeps,
+        );
+    }
+    let est = super::run(
+        &sub,
+        &halves.u,
+        crate::field::StressField::Rt(&r.stress),
+    );
+    let mut b = est.bound;
+    b.add_halves(distance(ctx, &halves, u));
+    let mut cells = vec![0.0; ctx.mesh.len()];
+    for (s, &c) in b.cells.iter().enumerate() {
+        cells[halves.parent[s] as usize] += c;
+    }
+    b.cells = cells;
+    b.statement = format!(
+        "{} (taken on the triangle halves of the quadrilaterals, for the P2 interpolant ũ_h of \
+         u_h; |||ũ_h − u_h||| added)",
+        b.statement
+    );
+    b
+}
