@@ -353,10 +353,10 @@ fn a_contact_edge_facing_away_from_the_obstacle_is_traction_free() {
 
 /// `auto` (no option) rebuilds a missing or inadmissible stress by patch equilibration on
 /// triangles, so the default run gives the bound: above the exact solution's error on a
-/// manufactured P2 mesh, guaranteed on the Hertz P2 file. Quadrilaterals keep the global
-/// minimiser, without a bound and with the reason.
+/// manufactured P2 mesh, guaranteed on the Hertz P2 file. On quadrilaterals F keeps the global
+/// minimiser, and the bound is taken on the triangle halves (design §6.7).
 #[test]
-fn the_default_mode_gives_the_bound_on_triangles() {
+fn the_default_mode_gives_the_bound() {
     let dir = root().join("fixtures/manufactured_frictionless_p2_n16");
     let expected = expected(&dir);
     let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
@@ -385,11 +385,99 @@ fn the_default_mode_gives_the_bound_on_triangles() {
         "{}",
         r.stress.space
     );
-    assert_eq!(r.bound.energy_error, None);
-    assert_eq!(
-        r.bound.failed_hypotheses,
-        ["quadrilateral cells: the bound is not implemented"]
-    );
+    let truth = crate::expected(&root().join("fixtures/quad_manufactured_q2_n08"))["errors"]["fe"]
+        ["energy"]
+        .as_f64()
+        .unwrap();
+    let e = r.bound.energy_error.expect("a bound on quadrilaterals");
+    assert!(e >= truth, "Q2: bound {e} below the true error {truth}");
+    assert!(r.bound.statement.contains("triangle halves"));
+}
+
+/// The bound on quadrilaterals (design §6.7) for exact solutions in the spaces: Q1, Q2 (straight
+/// and curved), serendipity and a mixed P2/Q2 mesh. The P2 interpolant on the halves is u_h
+/// itself where u_h is quadratic (Q1 on parallelograms, every exact field here is at most
+/// quadratic), so the bound and its split term vanish to round-off, and it is guaranteed.
+#[test]
+fn quadrilateral_exact_solutions_give_a_zero_guaranteed_bound() {
+    for case in [
+        "quad_exact_q1_energy",
+        "quad_exact_q2_energy",
+        "quad_exact_q2_curved_energy",
+        "quad_exact_s2_energy",
+        "quad_exact_mixed_p2q2_energy",
+    ] {
+        let file = root().join(format!("fixtures/{case}/solution.vtu"));
+        let (code, r, err) = estimate(&file, &[]);
+        assert_eq!(code, 0, "{case}: {err}");
+        let b = r.expect("a report").bound;
+        assert!(b.guaranteed, "{case}: {:?}", b.failed_hypotheses);
+        let rel = b.relative.expect("a relative bound");
+        assert!(rel < 1e-10, "{case}: bound / energy^½ = {rel:e}");
+        let split = b.terms.expect("terms").halves;
+        assert!(split < 1e-12, "{case}: |||ũ_h − u_h||| = {split:e}");
+    }
+}
+
+/// The bound on quadrilaterals against the manufactured family's exact solution (Q1, Q2 and
+/// serendipity, 4 / 8 / 16 squares per side): above the true error on every mesh, at its rate.
+/// On the parallelograms of Q1 the field is P2 on the halves, so the split costs nothing
+/// (|||ũ_h − u_h||| at round-off) and the index is that of the triangle bound: measured 1.48 /
+/// 1.29 / 1.18. On Q2 and S2 ũ_h misses the biquadratic part: |||ũ_h − u_h||| is 1.35–1.40 ×
+/// the true error, and the index is 3.30 / 3.00 / 2.98 (S2 3.32 / 2.99 / 2.97); the issue's ≤ 2
+/// is not met there (design §6.7).
+#[test]
+fn quadrilateral_bounds_on_the_manufactured_family_are_above_the_true_error() {
+    for (family, limit) in [
+        ("q1", [1.5, 1.35, 1.25]),
+        ("q2", [3.4, 3.1, 3.1]),
+        ("s2", [3.4, 3.1, 3.1]),
+    ] {
+        let (mut bounds, mut truths) = (Vec::new(), Vec::new());
+        for (i, n) in ["04", "08", "16"].into_iter().enumerate() {
+            let dir = root().join(format!("fixtures/quad_manufactured_{family}_n{n}"));
+            let truth = expected(&dir)["errors"]["fe"]["energy"].as_f64().unwrap();
+            let (code, r, err) = estimate(&dir.join("solution.vtu"), &[]);
+            assert!(code == 0 || code == 1, "{family} n{n}: {err}");
+            let b = r.expect("a report").bound;
+            let e = b
+                .energy_error
+                .unwrap_or_else(|| panic!("{family} n{n}: no bound: {:?}", b.failed_hypotheses));
+            assert!(
+                e >= truth,
+                "{family} n{n}: bound {e} below the true error {truth}"
+            );
+            assert!(
+                e <= limit[i] * truth,
+                "{family} n{n}: index {} > {}",
+                e / truth,
+                limit[i]
+            );
+            let split = b.terms.expect("terms").halves;
+            if family == "q1" {
+                assert!(
+                    split < 1e-12 * e,
+                    "{family} n{n}: |||ũ_h − u_h||| = {split:e}"
+                );
+            } else {
+                // (½|||ũ_h − u_h|||²)^½ alone is of the order of the true error.
+                let share = split / 2f64.sqrt() / truth;
+                assert!(
+                    share > 1.0 && share < 1.5,
+                    "{family} n{n}: split / error {share}"
+                );
+            }
+            bounds.push(e);
+            truths.push(truth);
+        }
+        let rate = |v: &[f64]| (v[1] / v[2]).log2();
+        assert!(
+            (rate(&bounds) - rate(&truths)).abs() < 0.15,
+            "{family}: bound rate {} against the error's {} ({bounds:?}, {truths:?})",
+            rate(&bounds),
+            rate(&truths)
+        );
+    }
 }
 
 /// A patch reconstruction whose constraints cannot all be met is not used by `auto`: on the

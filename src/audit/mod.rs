@@ -11,6 +11,7 @@
 //! parses the command line, calls these, prints and maps exit codes.
 
 mod finite;
+mod halves;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -634,7 +635,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
             None,
             Some(
                 "quadrilateral cells: the patch stress is built on the triangle halves, for the \
-                 bound (design §6.7); F uses the global minimiser on the quadrilaterals"
+                 bound (design §6.3); F uses the global minimiser on the quadrilaterals"
                     .to_string(),
             ),
         ),
@@ -722,13 +723,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         _ => unreachable!("a stress that is not nodal is reconstructed"),
     };
 
-    // The bound on quadrilaterals: on the triangle halves (design §6.7).
+    // The bound on quadrilaterals: on the triangle halves (design §6.3).
     let halves_bound = (quads
         && matches!(opts.stress, Source::Auto | Source::Patch)
         && ctx.elastic.lambda.is_finite())
     .then(|| {
         progress.stage("bounding the error on the triangle halves");
-        let b = estimate::halves::bound(
+        let b = halves::bound(
             &ctx,
             &data,
             u,

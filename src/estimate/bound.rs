@@ -78,7 +78,7 @@ pub struct BoundTerms {
     #[serde(default)]
     pub combination: String,
     /// |||ũ_h − u_h|||: on a mesh with quadrilaterals the bound is taken for the P2
-    /// interpolant ũ_h on the triangle halves (`estimate::halves`, design §6.7), and this
+    /// interpolant ũ_h on the triangle halves (`estimate::halves`, design §6.3), and this
     /// distance is added like the projection distance.
     #[serde(default)]
     pub halves: f64,
@@ -122,7 +122,7 @@ impl Bound {
     }
 
     /// The bound taken for ũ_h on the triangle halves, made one for u_h on the parent mesh
-    /// (design §6.7): |||u − u_h||| ≤ |||u − ũ_h||| + `distance`.
+    /// (design §6.3): |||u − u_h||| ≤ |||u − ũ_h||| + `distance`.
     pub fn add_halves(&mut self, distance: f64) {
         let Some(t) = self.terms.as_mut() else {
             return;

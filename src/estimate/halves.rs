@@ -1,9 +1,10 @@
-//! The bound on meshes with quadrilateral cells (docs/design.md §6.7): computed on the
+//! The bound on meshes with quadrilateral cells (docs/design.md §6.3): computed on the
 //! triangle halves.
 //!
 //! Every quadrilateral is cut along its diagonal from vertex 0 to vertex 2 into the two halves
-//! of [`sub_nodes`] (straight, or isoparametric P2 with the cell's edge nodes and the chord
-//! midpoint on the diagonal when the cell is curved), and every cell becomes a P2 triangle.
+//! of [`crate::geometry::values::sub_nodes`] (straight, or isoparametric P2 with the cell's
+//! edge nodes and the chord midpoint on the diagonal when the cell is curved), and every cell
+//! becomes a P2 triangle.
 //! The displacement on the halves is ũ_h, the P2 interpolant of u_h at their nodes. The
 //! patch equilibration and the bound of §6 then run on this triangle mesh, and
 //!
@@ -99,7 +100,7 @@ fn on_edge(a: usize, b: usize, n2: usize, nv: usize) -> Option<(usize, usize)> {
 
 /// The triangle split of the mesh of `ctx` (P2 triangles; m × m sub-squares per
 /// quadrilateral, each cut along its diagonal from corner 0 to 2, and m² sub-triangles per
-/// triangle) and ũ_h of `u` on it (module doc; design §6.7).
+/// triangle) and ũ_h of `u` on it (module doc; design §6.3).
 ///
 /// Nodes on the parent's edges are computed once per edge, from the edge's own trace (linear,
 /// or the quadratic through its mid node, the same curve and parametrisation every cell of a
@@ -109,12 +110,7 @@ fn on_edge(a: usize, b: usize, n2: usize, nv: usize) -> Option<(usize, usize)> {
 /// vertices are images of lattice points and their other nodes are straight midpoints: the
 /// sub-triangles are straight except along a curved parent edge, and ũ_h there is u_h at the
 /// parent point found by the inverse map.
-pub fn split(
-    ctx: &Context,
-    data: &Dataset,
-    u: &[[f64; 2]],
-    m: usize,
-) -> Result<Halves, String> {
+pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<Halves, String> {
     let mesh = ctx.mesh;
     let topo = ctx.topo;
     let n2 = 2 * m;
@@ -237,7 +233,9 @@ pub fn split(
                     let (back, v) = value(xi);
                     let miss = (back[0] - target[0]).abs() + (back[1] - target[1]).abs();
                     let scale = crate::geometry::diameter(fam, &x[..n]);
-                    if !(miss <= crate::tolerance::HALVES_DIAGONAL_MISS_RELATIVE * scale) {
+                    if miss.is_nan()
+                        || miss > crate::tolerance::HALVES_DIAGONAL_MISS_RELATIVE * scale
+                    {
                         return Err(format!(
                             "cell {}: a node of its triangle split is not inside the cell (the \
                              inverse map missed it by {miss:.1e})",
@@ -466,70 +464,4 @@ pub fn distance(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> f64 {
         })
         .sum();
     squares.max(0.0).sqrt()
-}
-
-/// The bound for u_h on a mesh with quadrilaterals (design §6.7): the patch equilibration
-/// (`order`, then `sweeps` improvement sweeps) and the bound of §6 for ũ_h on the halves,
-/// plus |||ũ_h − u_h|||. `relative` is still against ũ_h's energy: the caller sets u_h's
-/// ([`super::bound::Bound::set_reference_energy`]). The per-cell contributions are summed
-/// over each parent's halves.
-pub fn bound(
-    ctx: &Context,
-    data: &Dataset,
-    u: &[[f64; 2]],
-    order: crate::element::rt::RtOrder,
-    sweeps: usize,
-) -> super::bound::Bound {
-    let refused = |why: String| super::bound::Bound {
-        statement: format!("no bound: {why}"),
-        failed_hypotheses: vec![why],
-        ..Default::default()
-    };
-    let halves = match split(ctx, data, u, SUB_SQUARES) {
-        Ok(h) => h,
-        Err(why) => return refused(format!("the triangle halves of the mesh: {why}")),
-    };
-    let mut sub = Context::new(
-        &halves.data.mesh,
-        &halves.topo,
-        ctx.scene,
-        &halves.edges,
-        ctx.norm,
-    );
-    sub.length_scale = ctx.length_scale;
-    let mut r = match crate::reconstruct::patch::reconstruct(&sub, &halves.u, order) {
-        Ok(r) => r,
-        Err(why) => {
-            return refused(format!(
-                "the patch reconstruction on the triangle halves failed ({why})"
-            ));
-        }
-    };
-    if sweeps > 0 {
-        crate::reconstruct::sweep::sweep(
-            &sub,
-            &halves.u,
-            &mut r.stress,
-            r.info.weak_symmetry,
-            sweeps,
-        );
-    }
-    let est = super::run(
-        &sub,
-        &halves.u,
-        crate::field::StressField::Rt(&r.stress),
-    );
-    let mut b = est.bound;
-    b.add_halves(distance(ctx, &halves, u));
-    let mut cells = vec![0.0; ctx.mesh.len()];
-    for (s, &c) in b.cells.iter().enumerate() {
-        cells[halves.parent[s] as usize] += c;
-    }
-    b.cells = cells;
-    b.statement = format!(
-        "{} (taken on the triangle halves of the quadrilaterals, for the P2 interpolant ũ_h of \
-         u_h; |||ũ_h − u_h||| added)",
-        b.statement
-    );
-    b
 }

@@ -401,7 +401,7 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
             let _ = writeln!(
                 o,
                 "  taken on the triangle halves of the quadrilaterals: |||ũ_h − u_h||| = {} added \
-                 (design §6.7)",
+                 (design §6.3)",
                 n(t.halves)
             );
         }
