@@ -402,11 +402,17 @@ const DISTANCE_DEGREE_OTHER: usize = 12;
 /// quadrilaterals (zero on triangles, where ũ_h is u_h), with u_h at each point through the
 /// inverse map of its parent.
 pub fn distance(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> f64 {
+    let squares: f64 = distance_squares(ctx, halves, u).iter().sum();
+    squares.max(0.0).sqrt()
+}
+
+/// (Cε(ũ_h − u_h), ε(ũ_h − u_h))_T per triangle T of the split ([`distance`]).
+fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<f64> {
     use rayon::prelude::*;
     let mesh = ctx.mesh;
     let sub = &halves.data.mesh;
     let el = ctx.elastic;
-    let squares: f64 = (0..sub.len())
+    (0..sub.len())
         .into_par_iter()
         .with_min_len(256)
         .map(|s| {
@@ -462,6 +468,113 @@ pub fn distance(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> f64 {
             }
             acc
         })
-        .sum();
-    squares.max(0.0).sqrt()
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Norm;
+
+    /// The Hertz Q1 file's cells are bilinear (no parallelograms): the split covers the same
+    /// area (shoelace areas of the quadrilaterals against Σ det J/2 of the halves), and the
+    /// split term agrees with an independent integration of the same density over each parent
+    /// in its own reference square (a composite 4 × 4 Gauss rule on 48 × 48 sub-squares, the
+    /// half located by the side of the diagonal, ξ_sub by the half's affine inverse).
+    #[test]
+    fn the_split_term_matches_an_integration_over_the_parent() {
+        let fx = crate::problem::fixture("quad_hertz_skfem_q1");
+        let ctx = fx.context(Norm::Energy);
+        let u = fx.displacement();
+        let halves = split(&ctx, &fx.data, &u, SUB_SQUARES).expect("a split");
+        let mesh = ctx.mesh;
+        assert!(mesh.shape.iter().all(|&s| s == Shape::Bilinear || s == Shape::Affine));
+        let shoelace: f64 = (0..mesh.len())
+            .map(|t| {
+                let x = mesh.coords(t);
+                0.5 * (0..4)
+                    .map(|i| {
+                        let (a, b) = (x[i], x[(i + 1) % 4]);
+                        a[0] * b[1] - a[1] * b[0]
+                    })
+                    .sum::<f64>()
+            })
+            .sum();
+        let sub = &halves.data.mesh;
+        let halves_area: f64 = (0..sub.len()).map(|s| 0.5 * sub.double_area(s)).sum();
+        assert!(
+            ((halves_area - shoelace) / shoelace).abs() < 1e-13,
+            "{halves_area} against {shoelace}"
+        );
+        let squares = distance_squares(&ctx, &halves, &u);
+        let gauss = [
+            (0.5 - 0.430_568_155_797_026_3, 0.173_927_422_568_726_9),
+            (0.5 - 0.169_990_521_792_428_1, 0.326_072_577_431_273_1),
+            (0.5 + 0.169_990_521_792_428_1, 0.326_072_577_431_273_1),
+            (0.5 + 0.430_568_155_797_026_3, 0.173_927_422_568_726_9),
+        ];
+        let n = 48;
+        let el = ctx.elastic;
+        let mut checked = 0;
+        for t in (0..mesh.len()).step_by(40) {
+            let fam = mesh.family[t];
+            let x = mesh.coords(t);
+            let first = halves.parent.partition_point(|&p| (p as usize) < t);
+            let mine = squares[first] + squares[first + 1];
+            let mut other = 0.0;
+            for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+                for &(gx, wx) in &gauss {
+                    for &(gy, wy) in &gauss {
+                        let xi = [(i as f64 + gx) / n as f64, (j as f64 + gy) / n as f64];
+                        let (phi, g) = fam.shape(xi);
+                        let jq = jacobian(&x[..4], 4, &g);
+                        let p = crate::geometry::values::position(&x[..4], 4, &phi);
+                        let mut gp = [[0.0; 2]; 2];
+                        for (k, &node) in mesh.nodes(t).iter().enumerate() {
+                            let gk = jq.physical_gradient(g[k]);
+                            for a in 0..2 {
+                                gp[a][0] += u[node as usize][a] * gk[0];
+                                gp[a][1] += u[node as usize][a] * gk[1];
+                            }
+                        }
+                        let d = [x[2][0] - x[0][0], x[2][1] - x[0][1]];
+                        let r = [p[0] - x[0][0], p[1] - x[0][1]];
+                        let k = usize::from(d[0] * r[1] - d[1] * r[0] > 0.0);
+                        let s = first + k;
+                        let y = sub.coords(s);
+                        let m = [[y[1][0] - y[0][0], y[2][0] - y[0][0]], [
+                            y[1][1] - y[0][1],
+                            y[2][1] - y[0][1],
+                        ]];
+                        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+                        let q = [p[0] - y[0][0], p[1] - y[0][1]];
+                        let xs = [
+                            (m[1][1] * q[0] - m[0][1] * q[1]) / det,
+                            (-m[1][0] * q[0] + m[0][0] * q[1]) / det,
+                        ];
+                        let half = sub_point(Family::Tri6, &y[..6], sub.shape[s], 0, xs);
+                        let gh = half.gradient_at(sub.nodes(s), &halves.u);
+                        let e = [
+                            gh[0][0] - gp[0][0],
+                            0.5 * (gh[0][1] - gp[0][1] + gh[1][0] - gp[1][0]),
+                            0.5 * (gh[0][1] - gp[0][1] + gh[1][0] - gp[1][0]),
+                            gh[1][1] - gp[1][1],
+                        ];
+                        let st = el.stress(e);
+                        let w = wx * wy * jq.det / (n * n) as f64;
+                        other += w * (0..4).map(|c| st[c] * e[c]).sum::<f64>();
+                    }
+                }
+            }
+            if other > 0.0 {
+                checked += 1;
+                assert!(
+                    ((mine - other) / other).abs() < 2e-3,
+                    "cell {t}: split term² {mine:e} against {other:e}"
+                );
+            }
+        }
+        assert!(checked > 10, "{checked} cells with a split term");
+        assert!(distance(&ctx, &halves, &u) > 0.0);
+    }
 }
