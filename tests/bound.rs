@@ -657,3 +657,43 @@ fn hertz_penalty_bounds_are_guaranteed_against_the_fine_reference() {
         );
     }
 }
+
+/// A file stress that is admissible but not equilibrated (reference/exact's perturbed σ: the
+/// displacement is the exact solution, τ_yy = σ_yy + 0.1x(1 + y)) is what F uses under `auto`,
+/// and F is the hand integration's. It gives no bound itself (`--stress file`), so the bound
+/// takes the patch equilibration of u_h as its stress: u_h is exact, so the bound is 0 to
+/// round-off and guaranteed.
+#[test]
+fn a_file_stress_that_is_not_equilibrated_leaves_the_bound_to_the_patch_stress() {
+    let dir = root().join("fixtures/perturbed_sigma_energy");
+    let hand = expected(&dir)["hand"]["total"].as_f64().unwrap();
+    let (code, r, err) = estimate(&dir.join("solution.vtu"), &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.expect("a report");
+    assert_eq!(r.stress.source, "file");
+    assert!(
+        ((r.functional.total - hand) / hand).abs() < 1e-10,
+        "F {} against the hand integration's {hand}",
+        r.functional.total
+    );
+    let b = r.bound;
+    assert!(b.guaranteed, "{:?}", b.failed_hypotheses);
+    let rel = b.relative.expect("a relative bound");
+    assert!(rel < 1e-10, "bound / energy^½ = {rel:e}");
+    assert!(
+        b.statement.contains("patch equilibration of u_h"),
+        "{}",
+        b.statement
+    );
+    let (code, r, err) = estimate(&dir.join("solution.vtu"), &["--stress", "file"]);
+    assert!(code == 0 || code == 1, "{err}");
+    let b = r.expect("a report").bound;
+    assert_eq!(b.energy_error, None);
+    assert!(
+        b.failed_hypotheses
+            .iter()
+            .any(|h| h.starts_with("σ_h is not equilibrated")),
+        "{:?}",
+        b.failed_hypotheses
+    );
+}

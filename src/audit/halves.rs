@@ -1,27 +1,47 @@
-//! The bound on meshes with quadrilaterals (docs/design.md §6.3): the patch stress and the
-//! bound of §6.2 on the triangle split of `estimate::halves`, moved back to u_h.
+//! Bounds whose stress is not the one F uses (docs/design.md §6.2–§6.3): the patch
+//! equilibration of u_h for the bound alone, when the file's stress serves F but is not
+//! equilibrated, and on meshes with quadrilaterals, on the triangle split of
+//! `estimate::halves`, moved back to u_h.
 
+use crate::element::rt::RtOrder;
+use crate::estimate::bound::Bound;
 use crate::estimate::halves::{SUB_SQUARES, distance, split};
+use crate::field::StressField;
 use crate::mesh::Dataset;
 use crate::problem::Context;
 
-/// The bound for u_h on a mesh with quadrilaterals (design §6.3): the patch equilibration
-/// (`order`, then `sweeps` improvement sweeps) and the bound of §6 for ũ_h on the halves,
-/// plus |||ũ_h − u_h|||. `relative` is still against ũ_h's energy: the caller sets u_h's
-/// ([`crate::estimate::bound::Bound::set_reference_energy`]). The per-cell contributions are summed
-/// over each parent's halves.
-pub fn bound(
-    ctx: &Context,
-    data: &Dataset,
-    u: &[[f64; 2]],
-    order: crate::element::rt::RtOrder,
-    sweeps: usize,
-) -> crate::estimate::bound::Bound {
-    let refused = |why: String| crate::estimate::bound::Bound {
+fn refused(why: String) -> Bound {
+    Bound {
         statement: format!("no bound: {why}"),
         failed_hypotheses: vec![why],
         ..Default::default()
+    }
+}
+
+/// The bound of §6.2 for `u` with the patch equilibration of `u` (`order`, then `sweeps`
+/// improvement sweeps) as its stress, or the reason there is none.
+pub fn patch_bound(ctx: &Context, u: &[[f64; 2]], order: RtOrder, sweeps: usize) -> Bound {
+    let mut r = match crate::reconstruct::patch::reconstruct(ctx, u, order) {
+        Ok(r) => r,
+        Err(why) => return refused(format!("the patch reconstruction failed ({why})")),
     };
+    if sweeps > 0 {
+        crate::reconstruct::sweep::sweep(ctx, u, &mut r.stress, r.info.weak_symmetry, sweeps);
+    }
+    crate::estimate::run(ctx, u, StressField::Rt(&r.stress)).bound
+}
+
+/// The bound for u_h on a mesh with quadrilaterals (design §6.3): [`patch_bound`] for ũ_h on
+/// the triangle halves, plus |||ũ_h − u_h|||. `relative` is still against ũ_h's energy: the
+/// caller sets u_h's ([`Bound::set_reference_energy`]). The per-cell contributions are summed
+/// over each parent's halves.
+pub fn on_halves(
+    ctx: &Context,
+    data: &Dataset,
+    u: &[[f64; 2]],
+    order: RtOrder,
+    sweeps: usize,
+) -> Bound {
     let halves = match split(ctx, data, u, SUB_SQUARES) {
         Ok(h) => h,
         Err(why) => return refused(format!("the triangle halves of the mesh: {why}")),
@@ -34,25 +54,10 @@ pub fn bound(
         ctx.norm,
     );
     sub.length_scale = ctx.length_scale;
-    let mut r = match crate::reconstruct::patch::reconstruct(&sub, &halves.u, order) {
-        Ok(r) => r,
-        Err(why) => {
-            return refused(format!(
-                "the patch reconstruction on the triangle halves failed ({why})"
-            ));
-        }
-    };
-    if sweeps > 0 {
-        crate::reconstruct::sweep::sweep(
-            &sub,
-            &halves.u,
-            &mut r.stress,
-            r.info.weak_symmetry,
-            sweeps,
-        );
+    let mut b = patch_bound(&sub, &halves.u, order, sweeps);
+    if b.terms.is_none() {
+        return b;
     }
-    let est = crate::estimate::run(&sub, &halves.u, crate::field::StressField::Rt(&r.stress));
-    let mut b = est.bound;
     b.add_halves(distance(ctx, &halves, u));
     let mut cells = vec![0.0; ctx.mesh.len()];
     for (s, &c) in b.cells.iter().enumerate() {

@@ -729,7 +729,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         && ctx.elastic.lambda.is_finite())
     .then(|| {
         progress.stage("bounding the error on the triangle halves");
-        let b = halves::bound(
+        let b = halves::on_halves(
             &ctx,
             &data,
             u,
@@ -745,6 +745,26 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     if let Some(b) = halves_bound {
         est.bound = b;
         est.bound.set_reference_energy(est.energy);
+    }
+    // The file's stress, used as is for F, gives no bound when it is not equilibrated (no
+    // solver's stress is exactly): under `auto` the bound then takes the patch equilibration of
+    // u_h as its stress (design §6.2), and F keeps the file's stress.
+    if reconstruction.is_none()
+        && opts.stress == Source::Auto
+        && !quads
+        && ctx.elastic.lambda.is_finite()
+        && est.bound.energy_error.is_none()
+    {
+        let sweeps = opts.sweeps.unwrap_or(reconstruct::sweep::DEFAULT_SWEEPS);
+        let mut b = halves::patch_bound(&ctx, u, patch_order, sweeps);
+        if b.energy_error.is_some() {
+            b.statement = format!(
+                "{} (the bound's stress is the patch equilibration of u_h: the file's stress, \
+                 which F uses, is not equilibrated)",
+                b.statement
+            );
+            est.bound = b;
+        }
     }
     if let Some(p) = &projection {
         est.bound.add_projection(p.distance);

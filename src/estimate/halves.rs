@@ -488,7 +488,11 @@ mod tests {
         let u = fx.displacement();
         let halves = split(&ctx, &fx.data, &u, SUB_SQUARES).expect("a split");
         let mesh = ctx.mesh;
-        assert!(mesh.shape.iter().all(|&s| s == Shape::Bilinear || s == Shape::Affine));
+        assert!(
+            mesh.shape
+                .iter()
+                .all(|&s| s == Shape::Bilinear || s == Shape::Affine)
+        );
         let shoelace: f64 = (0..mesh.len())
             .map(|t| {
                 let x = mesh.coords(t);
@@ -542,10 +546,10 @@ mod tests {
                         let k = usize::from(d[0] * r[1] - d[1] * r[0] > 0.0);
                         let s = first + k;
                         let y = sub.coords(s);
-                        let m = [[y[1][0] - y[0][0], y[2][0] - y[0][0]], [
-                            y[1][1] - y[0][1],
-                            y[2][1] - y[0][1],
-                        ]];
+                        let m = [
+                            [y[1][0] - y[0][0], y[2][0] - y[0][0]],
+                            [y[1][1] - y[0][1], y[2][1] - y[0][1]],
+                        ];
                         let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
                         let q = [p[0] - y[0][0], p[1] - y[0][1]];
                         let xs = [
