@@ -32,9 +32,8 @@ pub fn patch_bound(ctx: &Context, u: &[[f64; 2]], order: RtOrder, sweeps: usize)
 }
 
 /// The bound for u_h on a mesh with quadrilaterals (design §6.3): [`patch_bound`] for ũ_h on
-/// the triangle halves, plus |||ũ_h − u_h|||. `relative` is still against ũ_h's energy: the
-/// caller sets u_h's ([`Bound::set_reference_energy`]). The per-cell contributions are summed
-/// over each parent's halves.
+/// the triangle halves, plus |||ũ_h − u_h|||, with `relative` against ½|||u_h|||². The per-cell
+/// contributions are summed over each parent's halves.
 pub fn on_halves(
     ctx: &Context,
     data: &Dataset,
@@ -58,7 +57,9 @@ pub fn on_halves(
     if b.terms.is_none() {
         return b;
     }
-    b.add_halves(distance(ctx, &halves, u));
+    let (d, energy) = distance(ctx, &halves, u);
+    b.add_halves(d);
+    b.set_reference_energy(energy);
     let mut cells = vec![0.0; ctx.mesh.len()];
     for (s, &c) in b.cells.iter().enumerate() {
         cells[halves.parent[s] as usize] += c;

@@ -744,7 +744,6 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let mut est: Estimate = estimate::run(&ctx, u, sigma);
     if let Some(b) = halves_bound {
         est.bound = b;
-        est.bound.set_reference_energy(est.energy);
     }
     // The file's stress, used as is for F, gives no bound when it is not equilibrated (no
     // solver's stress is exactly): under `auto` the bound then takes the patch equilibration of
