@@ -11,7 +11,7 @@
 //! parses the command line, calls these, prints and maps exit codes.
 
 mod finite;
-mod halves;
+pub mod halves;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

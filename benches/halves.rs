@@ -1,0 +1,253 @@
+//! The bound on quadrilaterals (docs/design.md §6.3) benchmark (a program, not a timed test):
+//!
+//! ```text
+//! cargo bench --bench halves                       # 10k and 100k cells; Q1 and Q2; 2 threads
+//! cargo bench --bench halves -- 1000000 --family 1 --threads 1,2
+//! ```
+//!
+//! Builds n × 2n squares of [0, 2] × [0, 1] (Q1 or biquadratic Q2, n = round(√(cells/2))) with
+//! the nodal interpolant of the patch bench's displacement and scene (`benches/patch.rs`), and
+//! times `fosls estimate` (default `auto`) after reading, in-process, as `audit::run` chains
+//! it on quadrilaterals:
+//!
+//! * setup: `mesh::build`, `topology::build`, `select_fields`, `classify`, `Context::new`;
+//! * global: the global minimiser of F on the quadrilaterals (`reconstruct::stress`, RT_{p−1}),
+//!   the stress F uses;
+//! * F: `estimate::run` with it;
+//! * halves: `audit::halves::on_halves`, the split, its patch equilibration and sweeps, the
+//!   bound on the split and the split term.
+//!
+//! Each case runs in a fresh child process with a rayon pool of that many threads, so that the
+//! peak memory (VmHWM, whole process) is its own.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+use fosls::element::rt::RtOrder;
+use fosls::estimate::{self, StressField};
+use fosls::read::scene::{Scene, parse_scene};
+use fosls::read::vtu::VtuFile;
+use fosls::reconstruct::{patch, stress, sweep};
+use fosls::{audit, mesh, problem, topology};
+use serde_json::{Value, json};
+
+const CASE_ENV: &str = "FOSLS_HALVES_CASE";
+
+fn u_exact(x: f64, y: f64) -> [f64; 2] {
+    [
+        1e-3 * (x * y).sin(),
+        -1e-2 * y * (1.0 - 0.3 * x) + 1e-4 * (x - 1.0) * (x - 1.0),
+    ]
+}
+
+/// 2n × n squares of [0, 2] × [0, 1]: Q1 (VTK 9) or Q2 (VTK 28) cells.
+fn rectangle(cells: usize, degree: usize) -> VtuFile {
+    let n = ((cells / 2) as f64).sqrt().round().max(1.0) as usize;
+    let (mx, my) = (degree * 2 * n + 1, degree * n + 1);
+    let mut pts = Vec::with_capacity(mx * my);
+    for j in 0..my {
+        for i in 0..mx {
+            pts.push([
+                2.0 * i as f64 / (mx - 1) as f64,
+                j as f64 / (my - 1) as f64,
+                0.0,
+            ]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * mx + i) as u32;
+    let mut c = Vec::with_capacity(2 * n * n);
+    for j in 0..n {
+        for i in 0..2 * n {
+            if degree == 1 {
+                c.push((9u8, vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]));
+            } else {
+                let (a, b) = (2 * i, 2 * j);
+                c.push((
+                    28u8,
+                    vec![
+                        id(a, b),
+                        id(a + 2, b),
+                        id(a + 2, b + 2),
+                        id(a, b + 2),
+                        id(a + 1, b),
+                        id(a + 2, b + 1),
+                        id(a + 1, b + 2),
+                        id(a, b + 1),
+                        id(a + 1, b + 1),
+                    ],
+                ));
+            }
+        }
+    }
+    let mut f = VtuFile::from_cells(Path::new("bench.vtu"), pts, &c);
+    let mut u = Vec::with_capacity(2 * f.points.len());
+    for p in &f.points {
+        u.extend_from_slice(&u_exact(p[0], p[1]));
+    }
+    f.point_data.push(fosls::read::vtu::DataArray {
+        name: "displacement".into(),
+        scalar: fosls::read::decode::Scalar::Float64,
+        components: 2,
+        component_names: vec![],
+        values: u,
+    });
+    f
+}
+
+fn scene() -> Scene {
+    parse_scene(
+        Path::new("bench.toml"),
+        "[material]\nyoungs_modulus = 20600.0\npoisson_ratio = 0.28\n\
+         [loads]\nbody_force = [0.0, -1.0]\n\
+         [[boundary]]\nname = \"top\"\nwhere = \"y > 0.999999\"\nkind = \"dirichlet\"\n\
+         displacement = [\"1e-3*sin(x*y)\", \"-1e-2*y*(1 - 0.3*x) + 1e-4*(x - 1)^2\"]\n\
+         [[boundary]]\nname = \"bottom\"\nwhere = \"y < 1e-9\"\nkind = \"contact\"\n\
+         gap = \"1e-5 + 2e-4*(x - 1)^2\"\nnormal = \"body\"\n\
+         [[boundary]]\nname = \"sides\"\nwhere = \"x < 1e-9 || x > 1.999999\"\n\
+         kind = \"neumann\"\ntraction = [0.0, 0.0]\n\
+         [estimate]\nnorm = \"energy\"\n",
+    )
+    .unwrap()
+}
+
+fn status_mib(key: &str) -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with(key))
+                .and_then(|l| l.split_whitespace().nth(1).map(|v| v.parse::<f64>().ok()))
+                .flatten()
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn child(spec: &str) {
+    let parts: Vec<usize> = spec.split(',').map(|p| p.parse().unwrap()).collect();
+    let (cells, degree, threads) = (parts[0], parts[1], parts[2]);
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .unwrap();
+    let scene = scene();
+    let file = rectangle(cells, degree);
+    let t0 = Instant::now();
+    let data = mesh::build(file).unwrap();
+    let topo = topology::build(&data).unwrap();
+    let fields = problem::select_fields(&data, &scene).unwrap();
+    let bounds = problem::classify(&data, &topo, &scene).unwrap();
+    let ctx = problem::Context::new(
+        &data.mesh,
+        &topo,
+        &scene,
+        &bounds.edges,
+        scene.effective_norm(),
+    );
+    let u = fields.displacement.as_deref().expect("a displacement");
+    let t1 = Instant::now();
+    let order = if degree == 1 {
+        RtOrder::Rt0
+    } else {
+        RtOrder::Rt1
+    };
+    let global = stress::reconstruct(&ctx, u, order).unwrap();
+    let t2 = Instant::now();
+    let est = estimate::run(&ctx, u, StressField::Rt(&global.stress));
+    let t3 = Instant::now();
+    let b = audit::halves::on_halves(
+        &ctx,
+        &data,
+        u,
+        patch::default_order(data.mesh.degree),
+        sweep::DEFAULT_SWEEPS,
+    );
+    let t4 = Instant::now();
+    let s = |a: Instant, z: Instant| (z - a).as_secs_f64();
+    let out = json!({
+        "cells": data.mesh.cells.len(), "degree": degree, "threads": threads,
+        "setup": s(t0, t1), "global": s(t1, t2), "F_time": s(t2, t3), "halves": s(t3, t4),
+        "whole": s(t0, t4), "peak_mib": status_mib("VmHWM:"),
+        "eta": est.eta, "energy_error": b.energy_error, "relative": b.relative,
+        "split_term": b.terms.as_ref().map(|t| t.halves),
+        "guaranteed": b.guaranteed, "failed": b.failed_hypotheses,
+    });
+    println!("{out}");
+}
+
+fn list(args: &[String], flag: &str, default: &[usize]) -> Vec<usize> {
+    match args.iter().position(|a| a == flag) {
+        Some(i) => args[i + 1]
+            .split(',')
+            .map(|s| s.parse().expect("a number"))
+            .collect(),
+        None => default.to_vec(),
+    }
+}
+
+fn main() {
+    if let Ok(spec) = std::env::var(CASE_ENV) {
+        child(&spec);
+        return;
+    }
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut sizes = Vec::new();
+    for (k, a) in args.iter().enumerate() {
+        if k > 0 && args[k - 1].starts_with("--") && args[k - 1] != "--bench" {
+            continue;
+        }
+        if let Ok(n) = a.parse::<usize>() {
+            sizes.push(n);
+        }
+    }
+    if sizes.is_empty() {
+        sizes = vec![10_000, 100_000];
+    }
+    let families = list(&args, "--family", &[1, 2]);
+    let threads = list(&args, "--threads", &[2]);
+    let exe = std::env::current_exe().unwrap();
+    let mut rows: Vec<Value> = Vec::new();
+    for &n in &sizes {
+        for &d in &families {
+            for &t in &threads {
+                let spec = format!("{n},{d},{t}");
+                eprintln!("case {spec} …");
+                let out = Command::new(&exe).env(CASE_ENV, &spec).output().unwrap();
+                if !out.status.success() {
+                    eprintln!("{spec}: {}", String::from_utf8_lossy(&out.stderr));
+                    continue;
+                }
+                if let Some(v) = String::from_utf8_lossy(&out.stdout)
+                    .lines()
+                    .find(|l| l.starts_with('{'))
+                    .map(|l| serde_json::from_str::<Value>(l).unwrap())
+                {
+                    eprintln!("{v}");
+                    rows.push(v);
+                }
+            }
+        }
+    }
+    println!(
+        "| cells | family | threads | setup s | global minimiser s | F s | bound on the halves s \
+         | whole s | peak MiB | bound.relative | split term |"
+    );
+    println!("|---:|:--|--:|--:|--:|--:|--:|--:|--:|--:|--:|");
+    for v in &rows {
+        let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "| {} | Q{} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.0} | {:.3e} | {:.2e} |",
+            v["cells"],
+            v["degree"],
+            v["threads"],
+            f("setup"),
+            f("global"),
+            f("F_time"),
+            f("halves"),
+            f("whole"),
+            f("peak_mib"),
+            f("relative"),
+            f("split_term"),
+        );
+    }
+}
