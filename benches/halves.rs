@@ -26,20 +26,16 @@ use std::time::Instant;
 
 use fosls::element::rt::RtOrder;
 use fosls::estimate::{self, StressField};
-use fosls::read::scene::{Scene, parse_scene};
 use fosls::read::vtu::VtuFile;
 use fosls::reconstruct::{patch, stress, sweep};
 use fosls::{audit, mesh, problem, topology};
 use serde_json::{Value, json};
 
-const CASE_ENV: &str = "FOSLS_HALVES_CASE";
+mod common;
 
-fn u_exact(x: f64, y: f64) -> [f64; 2] {
-    [
-        1e-3 * (x * y).sin(),
-        -1e-2 * y * (1.0 - 0.3 * x) + 1e-4 * (x - 1.0) * (x - 1.0),
-    ]
-}
+use common::{list, scene, status_mib, u_exact};
+
+const CASE_ENV: &str = "FOSLS_HALVES_CASE";
 
 /// 2n × n squares of [0, 2] × [0, 1]: Q1 (VTK 9) or Q2 (VTK 28) cells.
 fn rectangle(cells: usize, degree: usize) -> VtuFile {
@@ -60,7 +56,10 @@ fn rectangle(cells: usize, degree: usize) -> VtuFile {
     for j in 0..n {
         for i in 0..2 * n {
             if degree == 1 {
-                c.push((9u8, vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]));
+                c.push((
+                    9u8,
+                    vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)],
+                ));
             } else {
                 let (a, b) = (2 * i, 2 * j);
                 c.push((
@@ -93,34 +92,6 @@ fn rectangle(cells: usize, degree: usize) -> VtuFile {
         values: u,
     });
     f
-}
-
-fn scene() -> Scene {
-    parse_scene(
-        Path::new("bench.toml"),
-        "[material]\nyoungs_modulus = 20600.0\npoisson_ratio = 0.28\n\
-         [loads]\nbody_force = [0.0, -1.0]\n\
-         [[boundary]]\nname = \"top\"\nwhere = \"y > 0.999999\"\nkind = \"dirichlet\"\n\
-         displacement = [\"1e-3*sin(x*y)\", \"-1e-2*y*(1 - 0.3*x) + 1e-4*(x - 1)^2\"]\n\
-         [[boundary]]\nname = \"bottom\"\nwhere = \"y < 1e-9\"\nkind = \"contact\"\n\
-         gap = \"1e-5 + 2e-4*(x - 1)^2\"\nnormal = \"body\"\n\
-         [[boundary]]\nname = \"sides\"\nwhere = \"x < 1e-9 || x > 1.999999\"\n\
-         kind = \"neumann\"\ntraction = [0.0, 0.0]\n\
-         [estimate]\nnorm = \"energy\"\n",
-    )
-    .unwrap()
-}
-
-fn status_mib(key: &str) -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with(key))
-                .and_then(|l| l.split_whitespace().nth(1).map(|v| v.parse::<f64>().ok()))
-                .flatten()
-        })
-        .map_or(f64::NAN, |kb| kb / 1024.0)
 }
 
 fn child(spec: &str) {
@@ -173,16 +144,6 @@ fn child(spec: &str) {
         "guaranteed": b.guaranteed, "failed": b.failed_hypotheses,
     });
     println!("{out}");
-}
-
-fn list(args: &[String], flag: &str, default: &[usize]) -> Vec<usize> {
-    match args.iter().position(|a| a == flag) {
-        Some(i) => args[i + 1]
-            .split(',')
-            .map(|s| s.parse().expect("a number"))
-            .collect(),
-        None => default.to_vec(),
-    }
 }
 
 fn main() {

@@ -39,20 +39,16 @@ use std::process::Command;
 use std::time::Instant;
 
 use fosls::estimate::{self, StressField, Terms};
-use fosls::read::scene::{Scene, parse_scene};
 use fosls::read::vtu::VtuFile;
 use fosls::reconstruct::{patch, projection, sweep};
 use fosls::{mesh, problem, topology};
 use serde_json::{Value, json};
 
-const CASE_ENV: &str = "FOSLS_PATCH_CASE";
+mod common;
 
-fn u_exact(x: f64, y: f64) -> [f64; 2] {
-    [
-        1e-3 * (x * y).sin(),
-        -1e-2 * y * (1.0 - 0.3 * x) + 1e-4 * (x - 1.0) * (x - 1.0),
-    ]
-}
+use common::{list, scene, status_mib, u_exact};
+
+const CASE_ENV: &str = "FOSLS_PATCH_CASE";
 
 /// 2n × n squares of [0, 2] × [0, 1], each cut along (a, c): 4n² triangles of degree 1 or 2.
 fn rectangle(cells: usize, degree: usize) -> VtuFile {
@@ -103,32 +99,6 @@ fn rectangle(cells: usize, degree: usize) -> VtuFile {
         values: u,
     });
     f
-}
-
-fn scene() -> Scene {
-    parse_scene(
-        Path::new("bench.toml"),
-        "[material]\nyoungs_modulus = 20600.0\npoisson_ratio = 0.28\n\
-         [loads]\nbody_force = [0.0, -1.0]\n\
-         [[boundary]]\nname = \"top\"\nwhere = \"y > 0.999999\"\nkind = \"dirichlet\"\n\
-         displacement = [\"1e-3*sin(x*y)\", \"-1e-2*y*(1 - 0.3*x) + 1e-4*(x - 1)^2\"]\n\
-         [[boundary]]\nname = \"bottom\"\nwhere = \"y < 1e-9\"\nkind = \"contact\"\n\
-         gap = \"1e-5 + 2e-4*(x - 1)^2\"\nnormal = \"body\"\n\
-         [[boundary]]\nname = \"sides\"\nwhere = \"x < 1e-9 || x > 1.999999\"\n\
-         kind = \"neumann\"\ntraction = [0.0, 0.0]\n\
-         [estimate]\nnorm = \"energy\"\n",
-    )
-    .unwrap()
-}
-
-fn status_mib(key: &str) -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .unwrap_or_default()
-        .lines()
-        .find(|l| l.starts_with(key))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
 /// CPU time of the whole process, all threads (`CLOCK_PROCESS_CPUTIME_ID`), as in
@@ -278,16 +248,6 @@ fn run_case(exe: &Path, spec: &str) -> Option<Value> {
         .lines()
         .find(|l| l.starts_with('{'))
         .map(|l| serde_json::from_str(l).unwrap())
-}
-
-fn list(args: &[String], flag: &str, default: &[usize]) -> Vec<usize> {
-    match args.iter().position(|a| a == flag) {
-        Some(i) => args[i + 1]
-            .split(',')
-            .map(|s| s.parse().expect("a number"))
-            .collect(),
-        None => default.to_vec(),
-    }
 }
 
 fn main() {

@@ -1,0 +1,54 @@
+//! Shared by the patch and quadrilateral-bound benchmarks (`benches/patch.rs`,
+//! `benches/halves.rs`): their displacement, scene and process figures.
+
+use std::path::Path;
+
+use fosls::read::scene::{Scene, parse_scene};
+
+/// The displacement of both benches' meshes (smooth, not a Galerkin solution; no penetration).
+pub fn u_exact(x: f64, y: f64) -> [f64; 2] {
+    [
+        1e-3 * (x * y).sin(),
+        -1e-2 * y * (1.0 - 0.3 * x) + 1e-4 * (x - 1.0) * (x - 1.0),
+    ]
+}
+
+/// E = 20600, ν = 0.28, plane strain, body force (0, −1); top Dirichlet (u_D = u), bottom
+/// frictionless contact along the body normal, sides traction-free.
+pub fn scene() -> Scene {
+    parse_scene(
+        Path::new("bench.toml"),
+        "[material]\nyoungs_modulus = 20600.0\npoisson_ratio = 0.28\n\
+         [loads]\nbody_force = [0.0, -1.0]\n\
+         [[boundary]]\nname = \"top\"\nwhere = \"y > 0.999999\"\nkind = \"dirichlet\"\n\
+         displacement = [\"1e-3*sin(x*y)\", \"-1e-2*y*(1 - 0.3*x) + 1e-4*(x - 1)^2\"]\n\
+         [[boundary]]\nname = \"bottom\"\nwhere = \"y < 1e-9\"\nkind = \"contact\"\n\
+         gap = \"1e-5 + 2e-4*(x - 1)^2\"\nnormal = \"body\"\n\
+         [[boundary]]\nname = \"sides\"\nwhere = \"x < 1e-9 || x > 1.999999\"\n\
+         kind = \"neumann\"\ntraction = [0.0, 0.0]\n\
+         [estimate]\nnorm = \"energy\"\n",
+    )
+    .unwrap()
+}
+
+/// A `/proc/self/status` figure in MiB (e.g. "VmHWM:", the peak resident set).
+pub fn status_mib(key: &str) -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .unwrap_or_default()
+        .lines()
+        .find(|l| l.starts_with(key))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|v| v.parse::<f64>().ok())
+        .map_or(f64::NAN, |kib| kib / 1024.0)
+}
+
+/// The comma-separated numbers after `flag`, or `default`.
+pub fn list(args: &[String], flag: &str, default: &[usize]) -> Vec<usize> {
+    match args.iter().position(|a| a == flag) {
+        Some(i) => args[i + 1]
+            .split(',')
+            .map(|s| s.parse().expect("a number"))
+            .collect(),
+        None => default.to_vec(),
+    }
+}
