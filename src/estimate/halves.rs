@@ -1,10 +1,10 @@
 //! The bound on meshes with quadrilateral cells (docs/design.md §6.3): computed on the
 //! triangle halves.
 //!
-//! Every quadrilateral is cut along its diagonal from vertex 0 to vertex 2 into the two halves
-//! of [`crate::geometry::values::sub_nodes`] (straight, or isoparametric P2 with the cell's
-//! edge nodes and the chord midpoint on the diagonal when the cell is curved), and every cell
-//! becomes a P2 triangle.
+//! Every quadrilateral is cut along a diagonal into two halves (straight, or isoparametric P2
+//! with the cell's edge nodes and the chord midpoint on the diagonal when the cell is curved,
+//! as [`crate::geometry::values::sub_nodes`] cuts it from vertex 0 to 2; here the diagonal from
+//! 1 to 3 where that gives much better angles), and every cell becomes a P2 triangle.
 //! The displacement on the halves is ũ_h, the P2 interpolant of u_h at their nodes. The
 //! patch equilibration and the bound of §6 then run on this triangle mesh, and
 //!
@@ -96,6 +96,19 @@ fn on_edge(a: usize, b: usize, n2: usize, nv: usize) -> Option<(usize, usize)> {
             None
         }
     }
+}
+
+/// The least angle of the triangle `p` (radians).
+fn least_angle(p: [[f64; 2]; 3]) -> f64 {
+    (0..3)
+        .map(|k| {
+            let (o, a, b) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+            let (u, v) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
+            (u[0] * v[1] - u[1] * v[0])
+                .abs()
+                .atan2(u[0] * v[0] + u[1] * v[1])
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The triangle split of the mesh of `ctx` (P2 triangles; m × m sub-squares per
@@ -206,9 +219,26 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
                 lattice[idx(a, b)] = node;
             }
         }
+        // Per sub-square, the diagonal of its two triangles: from corner 0 to 2, or from 1 to
+        // 3 where that makes the least angle `HALVES_FLIP_GAIN` times larger (the Korn
+        // constants of §6.2 grow as 2/sin(θ_min/4)).
+        let mut flip = vec![false; m * m];
+        if quad {
+            for (i, j) in (0..m).flat_map(|i| (0..m).map(move |j| (i, j))) {
+                let (a, b) = (2 * i, 2 * j);
+                let c = [(a, b), (a + 2, b), (a + 2, b + 2), (a, b + 2)]
+                    .map(|(p, q)| points[lattice[idx(p, q)] as usize]);
+                let least = |t: [usize; 3], u: [usize; 3]| {
+                    least_angle([c[t[0]], c[t[1]], c[t[2]]])
+                        .min(least_angle([c[u[0]], c[u[1]], c[u[2]]]))
+                };
+                let (keep, other) = (least([0, 1, 2], [0, 2, 3]), least([0, 1, 3], [1, 2, 3]));
+                flip[i * m + j] = other > keep * crate::tolerance::HALVES_FLIP_GAIN;
+            }
+        }
         if quad {
             // The straight midpoints inside: between the two lattice vertices of the sub-edge
-            // (horizontal, vertical, or the sub-square's diagonal from its corner 0 to 2).
+            // (horizontal, vertical, or the sub-square's diagonal).
             for a in 1..n2 {
                 for b in 1..n2 {
                     if a % 2 == 0 && b % 2 == 0 {
@@ -217,6 +247,7 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
                     let (p, q) = match (a % 2, b % 2) {
                         (1, 0) => ((a - 1, b), (a + 1, b)),
                         (0, 1) => ((a, b - 1), (a, b + 1)),
+                        _ if flip[(a / 2) * m + b / 2] => ((a + 1, b - 1), (a - 1, b + 1)),
                         _ => ((a - 1, b - 1), (a + 1, b + 1)),
                     };
                     let (xp, xq) = (
@@ -267,7 +298,30 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
         for i in 0..m {
             for j in 0..m {
                 let (a, b) = (2 * i, 2 * j);
-                if quad {
+                if quad && flip[i * m + j] {
+                    push(
+                        [
+                            (a, b),
+                            (a + 2, b),
+                            (a, b + 2),
+                            (a + 1, b),
+                            (a + 1, b + 1),
+                            (a, b + 1),
+                        ],
+                        [(j == 0).then_some(0), None, (i == 0).then_some(3)],
+                    );
+                    push(
+                        [
+                            (a + 2, b),
+                            (a + 2, b + 2),
+                            (a, b + 2),
+                            (a + 2, b + 1),
+                            (a + 1, b + 2),
+                            (a + 1, b + 1),
+                        ],
+                        [(i == m - 1).then_some(1), (j == m - 1).then_some(2), None],
+                    );
+                } else if quad {
                     push(
                         [
                             (a, b),
@@ -486,7 +540,7 @@ mod tests {
     /// area (shoelace areas of the quadrilaterals against Σ det J/2 of the halves), and the
     /// split term agrees with an independent integration of the same density over each parent
     /// in its own reference square (a composite 4 × 4 Gauss rule on 48 × 48 sub-squares, the
-    /// half located by the side of the diagonal, ξ_sub by the half's affine inverse).
+    /// half located by its affine inverse).
     #[test]
     fn the_split_term_matches_an_integration_over_the_parent() {
         let fx = crate::problem::fixture("quad_hertz_skfem_q1");
@@ -550,21 +604,25 @@ mod tests {
                                 gp[a][1] += u[node as usize][a] * gk[1];
                             }
                         }
-                        let d = [x[2][0] - x[0][0], x[2][1] - x[0][1]];
-                        let r = [p[0] - x[0][0], p[1] - x[0][1]];
-                        let k = usize::from(d[0] * r[1] - d[1] * r[0] > 0.0);
-                        let s = first + k;
-                        let y = sub.coords(s);
-                        let m = [
-                            [y[1][0] - y[0][0], y[2][0] - y[0][0]],
-                            [y[1][1] - y[0][1], y[2][1] - y[0][1]],
-                        ];
-                        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-                        let q = [p[0] - y[0][0], p[1] - y[0][1]];
-                        let xs = [
-                            (m[1][1] * q[0] - m[0][1] * q[1]) / det,
-                            (-m[1][0] * q[0] + m[0][0] * q[1]) / det,
-                        ];
+                        // The half holding p (the diagonal is 0–2 or 1–3), ξ_sub by its
+                        // affine inverse.
+                        let (s, y, xs) = (first..first + 2)
+                            .map(|s| {
+                                let y = sub.coords(s);
+                                let m = [
+                                    [y[1][0] - y[0][0], y[2][0] - y[0][0]],
+                                    [y[1][1] - y[0][1], y[2][1] - y[0][1]],
+                                ];
+                                let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+                                let q = [p[0] - y[0][0], p[1] - y[0][1]];
+                                let xs = [
+                                    (m[1][1] * q[0] - m[0][1] * q[1]) / det,
+                                    (-m[1][0] * q[0] + m[0][0] * q[1]) / det,
+                                ];
+                                (s, y, xs)
+                            })
+                            .find(|(_, _, xs)| xs[0].min(xs[1]).min(1.0 - xs[0] - xs[1]) > -1e-12)
+                            .expect("a half holds the point");
                         let half = sub_point(Family::Tri6, &y[..6], sub.shape[s], 0, xs);
                         let gh = half.gradient_at(sub.nodes(s), &halves.u);
                         let e = [
