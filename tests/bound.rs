@@ -716,3 +716,30 @@ fn hertz_quadrilateral_bounds_are_guaranteed() {
         assert!(t.halves > 0.0, "{family}");
     }
 }
+
+/// `--output` writes each cell's share of R² (`bound_squared`, design §6.2) for ParaView: on a
+/// triangle file and on a quadrilateral one (summed over each cell's halves, §6.3) the shares
+/// add up to R² = `terms.combined`² of the JSON report.
+#[test]
+fn the_output_file_carries_the_bound_per_cell() {
+    for case in ["hertz_skfem_p2", "quad_hertz_skfem_q1"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.vtu");
+        let file = root().join(format!("fixtures/{case}/solution.vtu"));
+        let (code, r, err) = estimate(&file, &["--output", out.to_str().unwrap()]);
+        assert!(code == 0 || code == 1, "{case}: {err}");
+        let b = r.expect("a report").bound;
+        let r2 = b.terms.expect("terms").combined.powi(2);
+        let vtu = fosls::read::vtu::read_vtu(&out).unwrap();
+        let shares = vtu
+            .cell_data
+            .iter()
+            .find(|a| a.name == "bound_squared")
+            .expect("bound_squared");
+        let sum: f64 = shares.values.iter().sum();
+        assert!(
+            ((sum - r2) / r2).abs() < 1e-12,
+            "{case}: Σ {sum} against R² {r2}"
+        );
+    }
+}

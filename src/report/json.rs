@@ -404,7 +404,8 @@ mod tests {
             v["bound"],
             json!({"guaranteed": false, "energy_error": 9.5, "relative": 0.5,
                    "statement": "energy_error: not guaranteed", "terms": null,
-                   "failed_hypotheses": ["u_h penetrates the obstacle"], "cells": []})
+                   "failed_hypotheses": ["u_h penetrates the obstacle"],
+                   "cells": [0.5, 1.0, 0.25, 2.0, 0.0]})
         );
         assert_eq!(v["cells"]["count"], 5);
         let worst = v["cells"]["worst"].as_array().unwrap();

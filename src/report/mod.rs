@@ -321,7 +321,7 @@ pub(crate) mod fixture {
                 statement: "energy_error: not guaranteed".into(),
                 terms: None,
                 failed_hypotheses: vec!["u_h penetrates the obstacle".into()],
-                cells: vec![],
+                cells: vec![0.5, 1.0, 0.25, 2.0, 0.0],
                 energy: 361.0,
             },
             cells,

@@ -16,6 +16,7 @@
 //! | `eta` | η_T = (max(η_T², 0))^½ |
 //! | `eta_squared` | η_T², signed |
 //! | `eta_constitutive`, `eta_equilibrium`, `eta_complementarity`, `eta_friction` | the term's contribution to η_T² (an energy; signed for the boundary terms), so that the four add up to `eta_squared` |
+//! | `bound_squared` (only with a bound) | the cell's share of R² in the bound (docs/design.md §6.2: (η'_PS,T + (η_osc,T + η_as,T + η_tr,T)/√c_min)², units of \|\|\|·\|\|\|²; summed over the halves of a quadrilateral, §6.3) |
 //! | `marked` (Int, only when marking) | 1 if marked, else 0 |
 //! | `contact_state` (Int) | −1 on triangles and off Γ_C; on contact lines 0 separated, 1 stick, 2 slip |
 //!
@@ -34,13 +35,14 @@ use crate::read::vtu::{DataArray, VtuFile, cell_type};
 use crate::write::{Placement, write_vtu};
 
 /// Names of the cell arrays written from the estimate.
-pub const ARRAYS: [&str; 8] = [
+pub const ARRAYS: [&str; 9] = [
     "eta",
     "eta_squared",
     "eta_constitutive",
     "eta_equilibrium",
     "eta_complementarity",
     "eta_friction",
+    "bound_squared",
     "marked",
     "contact_state",
 ];
@@ -127,6 +129,14 @@ pub fn output_file(
         ),
         scalar_array("eta_friction", float, on_triangles(&|t| c.friction[t])),
     ];
+    let bound = &est.bound.cells;
+    if est.bound.energy_error.is_some() && bound.len() == nt {
+        ours.push(scalar_array(
+            "bound_squared",
+            float,
+            on_triangles(&|t| bound[t]),
+        ));
+    }
     if let Some(m) = marked {
         ours.push(scalar_array(
             "marked",
@@ -343,6 +353,7 @@ mod tests {
             check("eta_equilibrium", &[0.25, 2.5, 0.0, 1.0, 0.0], &zeros);
             check("eta_complementarity", &[0.25, 0.5, 0.0, 0.0, -0.75], &zeros);
             check("eta_friction", &[0.0; 5], &zeros);
+            check("bound_squared", &[0.5, 1.0, 0.25, 2.0, 0.0], &zeros);
             check("marked", &[0.0, 1.0, 0.0, 1.0, 0.0], &zeros);
             check("contact_state", &[-1.0; 5], &[1.0, 0.0, -1.0]);
             check("boundary_tag", &[0.0; 5], &[1.0, 1.0, 2.0]);
