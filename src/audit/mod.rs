@@ -584,9 +584,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         (Stress::Absent, Source::Auto) => Some(StressReason::Absent),
     };
     // Patch equilibration (triangles, λ < ∞, k ≥ 1) when asked for: the stress the bound
-    // needs; the global minimiser otherwise.
-    // On quadrilaterals the patch stress lives on the triangle halves and serves the bound
-    // (`estimate::halves`); F there uses the global minimiser.
+    // needs; the global minimiser otherwise. On quadrilaterals the patch stress lives on the
+    // triangle halves and serves the bound only (`estimate::halves`, design §6.3).
     let quads = data.mesh.has_quads();
     let use_patch = match opts.stress {
         Source::Patch => !quads,
@@ -747,7 +746,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     }
     // The file's stress, used as is for F, gives no bound when it is not equilibrated (no
     // solver's stress is exactly): under `auto` the bound then takes the patch equilibration of
-    // u_h as its stress (design §6.2), and F keeps the file's stress.
+    // u_h as its stress (design §5.2, step 4), and F keeps the file's stress.
     if reconstruction.is_none()
         && opts.stress == Source::Auto
         && !quads

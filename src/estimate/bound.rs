@@ -244,8 +244,14 @@ pub fn bound(
     }
     if mesh.family.iter().any(|f| f.is_quad()) {
         return Bound {
-            statement: "no bound: not implemented for quadrilateral cells".into(),
-            failed_hypotheses: vec!["quadrilateral cells: the bound is not implemented".into()],
+            statement: "no bound: on quadrilateral cells the bound is taken on their triangle \
+                        halves, under --stress auto or patch (docs/design.md §6.3)"
+                .into(),
+            failed_hypotheses: vec![
+                "quadrilateral cells: the bound is taken on their triangle halves (--stress \
+                 auto or patch)"
+                    .into(),
+            ],
             ..Default::default()
         };
     }

@@ -112,8 +112,9 @@ fn least_angle(p: [[f64; 2]; 3]) -> f64 {
 }
 
 /// The triangle split of the mesh of `ctx` (P2 triangles; m × m sub-squares per
-/// quadrilateral, each cut along its diagonal from corner 0 to 2, and m² sub-triangles per
-/// triangle) and ũ_h of `u` on it (module doc; design §6.3).
+/// quadrilateral, each cut along its diagonal from corner 0 to 2, or from 1 to 3 where that
+/// makes the least angle [`crate::tolerance::HALVES_FLIP_GAIN`] times larger, and m²
+/// sub-triangles per triangle) and ũ_h of `u` on it (module doc; design §6.3).
 ///
 /// Nodes on the parent's edges are computed once per edge, from the edge's own trace (linear,
 /// or the quadratic through its mid node, the same curve and parametrisation every cell of a
