@@ -46,7 +46,7 @@ use serde_json::{Value, json};
 
 mod common;
 
-use common::{list, scene, status_mib, u_exact};
+use common::{grid, list, scene, status_mib, with_displacement};
 
 const CASE_ENV: &str = "FOSLS_PATCH_CASE";
 
@@ -54,16 +54,7 @@ const CASE_ENV: &str = "FOSLS_PATCH_CASE";
 fn rectangle(cells: usize, degree: usize) -> VtuFile {
     let n = ((cells / 4) as f64).sqrt().round().max(1.0) as usize;
     let (mx, my) = (degree * 2 * n + 1, degree * n + 1);
-    let mut pts = Vec::with_capacity(mx * my);
-    for j in 0..my {
-        for i in 0..mx {
-            pts.push([
-                2.0 * i as f64 / (mx - 1) as f64,
-                j as f64 / (my - 1) as f64,
-                0.0,
-            ]);
-        }
-    }
+    let pts = grid(mx, my);
     let id = |i: usize, j: usize| (j * mx + i) as u32;
     let mut c = Vec::with_capacity(4 * n * n);
     for j in 0..n {
@@ -86,19 +77,7 @@ fn rectangle(cells: usize, degree: usize) -> VtuFile {
             }
         }
     }
-    let mut f = VtuFile::from_cells(Path::new("bench.vtu"), pts, &c);
-    let mut u = Vec::with_capacity(2 * f.points.len());
-    for p in &f.points {
-        u.extend_from_slice(&u_exact(p[0], p[1]));
-    }
-    f.point_data.push(fosls::read::vtu::DataArray {
-        name: "displacement".into(),
-        scalar: fosls::read::decode::Scalar::Float64,
-        components: 2,
-        component_names: vec![],
-        values: u,
-    });
-    f
+    with_displacement(pts, &c)
 }
 
 /// CPU time of the whole process, all threads (`CLOCK_PROCESS_CPUTIME_ID`), as in

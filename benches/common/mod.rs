@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use fosls::read::scene::{Scene, parse_scene};
+use fosls::read::vtu::VtuFile;
 
 /// The displacement of both benches' meshes (smooth, not a Galerkin solution; no penetration).
 pub fn u_exact(x: f64, y: f64) -> [f64; 2] {
@@ -11,6 +12,39 @@ pub fn u_exact(x: f64, y: f64) -> [f64; 2] {
         1e-3 * (x * y).sin(),
         -1e-2 * y * (1.0 - 0.3 * x) + 1e-4 * (x - 1.0) * (x - 1.0),
     ]
+}
+
+/// The mx × my lattice of points of [0, 2] × [0, 1], row by row (z = 0).
+pub fn grid(mx: usize, my: usize) -> Vec<[f64; 3]> {
+    let mut pts = Vec::with_capacity(mx * my);
+    for j in 0..my {
+        for i in 0..mx {
+            pts.push([
+                2.0 * i as f64 / (mx - 1) as f64,
+                j as f64 / (my - 1) as f64,
+                0.0,
+            ]);
+        }
+    }
+    pts
+}
+
+/// The file of the cells `c` (VTK type, nodes) on `pts`, with [`u_exact`] at every point as
+/// the point array "displacement".
+pub fn with_displacement(pts: Vec<[f64; 3]>, c: &[(u8, Vec<u32>)]) -> VtuFile {
+    let mut f = VtuFile::from_cells(Path::new("bench.vtu"), pts, c);
+    let mut u = Vec::with_capacity(2 * f.points.len());
+    for p in &f.points {
+        u.extend_from_slice(&u_exact(p[0], p[1]));
+    }
+    f.point_data.push(fosls::read::vtu::DataArray {
+        name: "displacement".into(),
+        scalar: fosls::read::decode::Scalar::Float64,
+        components: 2,
+        component_names: vec![],
+        values: u,
+    });
+    f
 }
 
 /// E = 20600, ν = 0.28, plane strain, body force (0, −1); top Dirichlet (u_D = u), bottom

@@ -28,7 +28,16 @@ pub fn patch_bound(ctx: &Context, u: &[[f64; 2]], order: RtOrder, sweeps: usize)
     if sweeps > 0 {
         crate::reconstruct::sweep::sweep(ctx, u, &mut r.stress, r.info.weak_symmetry, sweeps);
     }
-    crate::estimate::run(ctx, u, StressField::Rt(&r.stress)).bound
+    // The bound needs the boundary pass (admissibility, complementarity and friction
+    // pairings) but not the interior terms of F, which no one reads for this stress.
+    let sigma = StressField::Rt(&r.stress);
+    let boundary = crate::estimate::boundary::boundary(ctx, u, sigma);
+    let pairing = crate::estimate::Terms {
+        complementarity: boundary.complementarity.iter().sum(),
+        friction: boundary.friction.iter().sum(),
+        ..Default::default()
+    };
+    crate::estimate::bound::bound(ctx, u, sigma, &pairing, &boundary.admissibility)
 }
 
 /// The bound for u_h on a mesh with quadrilaterals (design §6.3): [`patch_bound`] for ũ_h on

@@ -43,9 +43,6 @@ pub struct Halves {
     /// r₀) + ξ̂₁(r₂ − r₀) is the starting guess of the inverse map at its point ξ̂ (exact on
     /// affine parents).
     pub reference: Vec<[[f64; 2]; 3]>,
-    /// Sub-squares per side of each quadrilateral (and sub-triangles per side of each
-    /// triangle).
-    pub m: usize,
 }
 
 /// Sub-squares per side of each quadrilateral in the split (`split`'s `m`): 1, the two halves.
@@ -281,10 +278,14 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
             }
         }
         let mut edges_here: [Vec<(u32, u8)>; 4] = Default::default();
-        let mut push = |c: [(usize, usize); 6], on: [Option<usize>; 3]| {
+        // A P2 triangle from its three lattice vertices (its mid nodes are the lattice
+        // midpoints), with the parent edge under each of its local edges, if any.
+        let mut push = |v: [(usize, usize); 3], on: [Option<usize>; 3]| {
             let mut cell = [NONE; MAX_NODES];
-            for (k, &(a, b)) in c.iter().enumerate() {
-                cell[k] = lattice[idx(a, b)];
+            for k in 0..3 {
+                let (p, q) = (v[k], v[(k + 1) % 3]);
+                cell[k] = lattice[idx(p.0, p.1)];
+                cell[3 + k] = lattice[idx((p.0 + q.0) / 2, (p.1 + q.1) / 2)];
             }
             let index = cells.len() as u32;
             for (local, l) in on.iter().enumerate() {
@@ -294,67 +295,35 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
             }
             cells.push(cell);
             parent.push(t as u32);
-            reference.push([0, 1, 2].map(|k| lattice_point(c[k].0, c[k].1, m)));
+            reference.push(v.map(|(a, b)| lattice_point(a, b, m)));
         };
         for i in 0..m {
             for j in 0..m {
                 let (a, b) = (2 * i, 2 * j);
-                if quad && flip[i * m + j] {
-                    push(
-                        [
-                            (a, b),
-                            (a + 2, b),
-                            (a, b + 2),
-                            (a + 1, b),
-                            (a + 1, b + 1),
-                            (a, b + 1),
-                        ],
-                        [(j == 0).then_some(0), None, (i == 0).then_some(3)],
-                    );
-                    push(
-                        [
-                            (a + 2, b),
-                            (a + 2, b + 2),
-                            (a, b + 2),
-                            (a + 2, b + 1),
-                            (a + 1, b + 2),
-                            (a + 1, b + 1),
-                        ],
-                        [(i == m - 1).then_some(1), (j == m - 1).then_some(2), None],
-                    );
-                } else if quad {
-                    push(
-                        [
-                            (a, b),
-                            (a + 2, b),
-                            (a + 2, b + 2),
-                            (a + 1, b),
-                            (a + 2, b + 1),
-                            (a + 1, b + 1),
-                        ],
-                        [(j == 0).then_some(0), (i == m - 1).then_some(1), None],
-                    );
-                    push(
-                        [
-                            (a, b),
-                            (a + 2, b + 2),
-                            (a, b + 2),
-                            (a + 1, b + 1),
-                            (a + 1, b + 2),
-                            (a, b + 1),
-                        ],
-                        [None, (j == m - 1).then_some(2), (i == 0).then_some(3)],
-                    );
+                if quad {
+                    let corner = [(a, b), (a + 2, b), (a + 2, b + 2), (a, b + 2)];
+                    // Side s of the sub-square (corner s to s + 1) on parent edge s, if any.
+                    let side = [
+                        (j == 0).then_some(0),
+                        (i == m - 1).then_some(1),
+                        (j == m - 1).then_some(2),
+                        (i == 0).then_some(3),
+                    ];
+                    let halves: [[usize; 3]; 2] = if flip[i * m + j] {
+                        [[0, 1, 3], [1, 2, 3]]
+                    } else {
+                        [[0, 1, 2], [0, 2, 3]]
+                    };
+                    for h in halves {
+                        let on = std::array::from_fn(|k| {
+                            let (p, q) = (h[k], h[(k + 1) % 3]);
+                            if q == (p + 1) % 4 { side[p] } else { None }
+                        });
+                        push(h.map(|k| corner[k]), on);
+                    }
                 } else if i + j < m {
                     push(
-                        [
-                            (a, b),
-                            (a + 2, b),
-                            (a, b + 2),
-                            (a + 1, b),
-                            (a + 1, b + 1),
-                            (a, b + 1),
-                        ],
+                        [(a, b), (a + 2, b), (a, b + 2)],
                         [
                             (j == 0).then_some(0),
                             (i + j == m - 1).then_some(1),
@@ -362,17 +331,7 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
                         ],
                     );
                     if i + j + 1 < m {
-                        push(
-                            [
-                                (a + 2, b),
-                                (a + 2, b + 2),
-                                (a, b + 2),
-                                (a + 2, b + 1),
-                                (a + 1, b + 2),
-                                (a + 1, b + 1),
-                            ],
-                            [None, None, None],
-                        );
+                        push([(a + 2, b), (a + 2, b + 2), (a, b + 2)], [None; 3]);
                     }
                 }
             }
@@ -384,7 +343,7 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
     let shape = cells
         .iter()
         .map(|c| {
-            let x: Vec<[f64; 2]> = c[..6].iter().map(|&p| points[p as usize]).collect();
+            let x: [[f64; 2]; 6] = std::array::from_fn(|k| points[c[k] as usize]);
             crate::geometry::classify(Family::Tri6, &x, crate::tolerance::CURVED_RELATIVE)
         })
         .collect();
@@ -443,7 +402,6 @@ pub fn split(ctx: &Context, data: &Dataset, u: &[[f64; 2]], m: usize) -> Result<
         u: uh,
         parent,
         reference,
-        m,
     })
 }
 
@@ -536,6 +494,43 @@ fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<(f64,
 mod tests {
     use super::*;
     use crate::scene::Norm;
+
+    /// The finer split (m = 3, not the default) on the mixed P2/Q2 exact fixture, whose field
+    /// is quadratic: the split is conforming (its topology builds) with 2m² triangles per
+    /// quadrilateral and m² per triangle, it covers the fixture's area (expected.json, from
+    /// reference/quads), ũ_h is u_h (split term at round-off), and ½|||u_h|||² is the
+    /// reference's.
+    #[test]
+    fn a_finer_split_tiles_the_cells_and_keeps_a_quadratic_field() {
+        let case = "quad_exact_mixed_p2q2_energy";
+        let fx = crate::problem::fixture(case);
+        let ctx = fx.context(Norm::Energy);
+        let u = fx.displacement();
+        let m = 3;
+        let halves = split(&ctx, &fx.data, &u, m).expect("a split");
+        let mesh = ctx.mesh;
+        let quads = mesh.family.iter().filter(|f| f.is_quad()).count();
+        assert!(quads > 0 && quads < mesh.len(), "a mixed mesh");
+        let sub = &halves.data.mesh;
+        assert_eq!(sub.len(), 2 * m * m * quads + m * m * (mesh.len() - quads));
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(format!("fixtures/{case}/expected.json"));
+        let expected: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let area: f64 = (0..sub.len()).map(|s| 0.5 * sub.double_area(s)).sum();
+        let reference = expected["energy"]["area"].as_f64().unwrap();
+        assert!(
+            ((area - reference) / reference).abs() < 1e-13,
+            "{area} against {reference}"
+        );
+        let (d, energy) = distance(&ctx, &halves, &u);
+        let reference = expected["energy"]["energy"].as_f64().unwrap();
+        assert!(d < 1e-12 * reference.sqrt(), "|||ũ_h − u_h||| = {d:e}");
+        assert!(
+            ((energy - reference) / reference).abs() < 1e-12,
+            "{energy} against {reference}"
+        );
+    }
 
     /// The Hertz Q1 file's cells are bilinear (no parallelograms): the split covers the same
     /// area (shoelace areas of the quadrilaterals against Σ det J/2 of the halves), and the
