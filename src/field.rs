@@ -7,6 +7,19 @@ use crate::geometry::values::{locate_sub, sub_count, sub_point};
 use crate::geometry::{Jacobian, MAX_NODES};
 use crate::mesh::Mesh;
 
+/// max_i |v_i| with |·| the Euclidean length: the scale of a vector field, the same in every
+/// frame (a largest component would change by up to √2 under a rotation, and with it every
+/// tolerance taken relative to it).
+pub fn max_norm(v: &[[f64; 2]]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x[0].hypot(x[1])))
+}
+
+/// The Frobenius norm of a stress `[xx, xy, yx, yy]`, invariant under rotations of the frame.
+#[inline]
+pub fn frobenius(s: &[f64; 4]) -> f64 {
+    (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt()
+}
+
 /// A row-wise RT_k stress: per sub-triangle and row, the coefficients of the local basis.
 /// Sub-triangle `first[t] + k` is half `k` of cell `t` ([`crate::geometry::SubCell`]).
 #[derive(Clone, Debug)]
@@ -76,13 +89,11 @@ pub enum StressField<'a> {
 }
 
 impl StressField<'_> {
-    /// The largest stress component magnitude (at nodes, or at sub-triangle centroids for RT),
+    /// The largest Frobenius norm of the stress (at nodes, or at sub-triangle centroids for RT),
     /// the scale of the stress admissibility tolerances.
     pub fn scale(&self, mesh: &Mesh) -> f64 {
         match self {
-            StressField::Nodal(s) => s
-                .iter()
-                .fold(0.0f64, |m, v| v.iter().fold(m, |m, x| m.max(x.abs()))),
+            StressField::Nodal(s) => s.iter().fold(0.0f64, |m, v| m.max(frobenius(v))),
             StressField::Rt(rt) => (0..mesh.len())
                 .map(|t| {
                     let f = mesh.family[t];
@@ -92,7 +103,7 @@ impl StressField<'_> {
                             let c = [1.0 / 3.0, 1.0 / 3.0];
                             let js = sub_point(f, &x[..f.nodes()], mesh.shape[t], k, c).jac;
                             let (s, _) = rt.at(rt.first[t] as usize + k, &js, c);
-                            s.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+                            frobenius(&s)
                         })
                         .fold(0.0f64, f64::max)
                 })

@@ -267,9 +267,7 @@ pub fn starter_scene(data: &Dataset, topo: &Topology, file_name: &str) -> Result
 /// The value of `u` when it is the same at every node (within `tol`), if the nodes are many.
 fn constant_on(u: &[[f64; 2]], nodes: &[u32], tol: f64) -> Option<[f64; 2]> {
     let first = u[*nodes.first()? as usize];
-    let scale = u
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+    let scale = crate::field::max_norm(u);
     let t = tol.max(1e-9 * scale);
     (nodes.len() >= 2
         && nodes.iter().all(|&n| {

@@ -102,6 +102,14 @@ pub const GAP_RELATIVE: f64 = 1e-6;
 /// checks, of max |σ_h| for stress checks) when deciding whether a hypothesis holds.
 pub const ADMISSIBLE_RELATIVE: f64 = 1e-10;
 
+/// Multiple of max |x| (the mesh's coordinates) added to the round-off level of displacement
+/// checks: a gap (x − p)·n − u_n evaluated at |x| ~ X carries a few ε·X of absolute error,
+/// whatever u_h is. The Hertz P1 file moved to (1e4, −3e4) and turned by 107° showed a
+/// "penetration" of 1.9e-12 = 2.8 ε·X, above 1e-10 max |u_h| = 1e-12, and lost its guarantee;
+/// 16 ε leaves a margin of 5 over that and is 3.6e-15 X, far below any penetration a solver
+/// leaves on a mesh of size X.
+pub const COORDINATE_ROUNDOFF: f64 = 16.0 * f64::EPSILON;
+
 /// Coulomb coefficients below this are reconstructed with τ_t = 0 (the cone's axis, which is
 /// admissible) instead of the cone variables w₁,₂ = ±τ_t + 𝔉τ_n: those map to τ_n with the
 /// factor 1/(2𝔉), which multiplies the condition number by about 𝔉⁻², and at 𝔉 = 1e-8 breaks
@@ -318,6 +326,15 @@ pub const FLOW_RELATIVE: f64 = 1e-14;
 /// Rounds of balancing flows and re-solved patches (`reconstruct::patch`): one round moves the
 /// load defects; a patch whose active set then changes leaves a smaller residual for the next.
 pub const FLOW_PASSES: usize = 3;
+
+/// A further round of flows is made while some patch's defect is above this (up to
+/// `FLOW_PASSES`): a defect below [`PATCH_DEFECT_RELATIVE`] counts as met for that patch, but
+/// what it leaves in a cell's ∫ as σ_h is more than the symmetric correction can leave
+/// ([`SYMMETRIC_RESIDUAL`]). The Hertz Q2 halves with the rotation moments about the mean of
+/// the points stopped after one round at a defect of 2.3e-9, and 9 of 840 cells kept their
+/// Korn term (bound not guaranteed); a second round gives 3e-14. Round-off of the patch solves
+/// is ~1e-13.
+pub const FLOW_PASS_DEFECT: f64 = 1e-11;
 
 /// Quadrature degree for a body force that is not constant, in the patch loads
 /// (`reconstruct::patch`) and in the bound's moment and oscillation terms (`estimate::bound`):

@@ -296,11 +296,10 @@ fn unusable_patch_stress(
         .any(|b| b.contact().is_some_and(|c| c.friction > 0.0));
     let field = StressField::Rt(&r.stress);
     let check = estimate::boundary::boundary(ctx, u, field);
-    let failures: Vec<String> =
-        estimate::failed_checks(&check.admissibility, u, field.scale(ctx.mesh), frictional)
-            .into_iter()
-            .filter(|f| f.starts_with("σ_h") && !f.contains("traction data"))
-            .collect();
+    let failures: Vec<String> = estimate::failed_checks(&check.admissibility, frictional)
+        .into_iter()
+        .filter(|f| f.starts_with("σ_h") && !f.contains("traction data"))
+        .collect();
     (!failures.is_empty()).then(|| failures.join("; "))
 }
 
@@ -548,15 +547,10 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         (Stress::Nodal { values, name, .. }, Source::Auto) => {
             let field = StressField::Nodal(values);
             let check = estimate::boundary::boundary(&ctx, u, field);
-            let failures: Vec<String> = estimate::failed_checks(
-                &check.admissibility,
-                u,
-                field.scale(&data.mesh),
-                frictional,
-            )
-            .into_iter()
-            .filter(|f| f.starts_with("σ_h"))
-            .collect();
+            let failures: Vec<String> = estimate::failed_checks(&check.admissibility, frictional)
+                .into_iter()
+                .filter(|f| f.starts_with("σ_h"))
+                .collect();
             (!failures.is_empty()).then(|| StressReason::Inadmissible {
                 name: name.clone(),
                 failures,
@@ -840,12 +834,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let judged = file_admissibility
         .as_ref()
         .map_or(&est.admissibility, |f| &f.admissibility);
-    let failed = estimate::failed_checks(
-        judged,
-        &[[judged.u_scale, 0.0]],
-        judged.sigma_scale,
-        frictional,
-    );
+    let failed = estimate::failed_checks(judged, frictional);
     if let Some(p) = &projection {
         notes.push(format!(
             "displacement projected onto K_u: {} inadmissible nodes; {} active contact \

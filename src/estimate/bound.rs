@@ -257,10 +257,7 @@ pub fn bound(
     }
     // A P2 trace that crosses the obstacle between admissible nodes: the bound is taken for
     // the lifted v' (lift.rs), the lift's distance and pairing added.
-    let umax = v
-        .iter()
-        .fold(0.0f64, |m, p| m.max(p[0].abs()).max(p[1].abs()));
-    let tol = super::ADMISSIBLE_TOLERANCE * umax;
+    let tol = adm.displacement_tolerance();
     let lifted = if adm.penetration.max > tol && !frictional {
         lift::lift(ctx, v, sigma, tol)
     } else {
@@ -701,7 +698,7 @@ pub fn bound(
                 .to_string(),
         );
     }
-    failed.extend(failed_checks(adm, v, sigma_scale, frictional));
+    failed.extend(failed_checks(adm, frictional));
     let unbalanced = cells
         .iter()
         .filter(|c| c.moment > BOUND_MOMENT_RELATIVE)

@@ -49,9 +49,7 @@ use crate::material::Elastic;
 use crate::problem::{Condition, Context};
 use crate::quadrature::line_rule_cached;
 use crate::scene::BoundaryKind;
-use crate::tolerance::{
-    ADMISSIBLE_RELATIVE, BOUND_MOMENT_RELATIVE, DATA_PANELS, EDGE_DEGREE, LOAD_DEGREE,
-};
+use crate::tolerance::{BOUND_MOMENT_RELATIVE, DATA_PANELS, EDGE_DEGREE, LOAD_DEGREE};
 
 /// Per-cell data terms and whether they replace the admissibility checks of the data.
 pub struct DataTerms {
@@ -94,9 +92,10 @@ pub fn data_terms(
         traction_covered: true,
         dirichlet_covered: true,
     };
-    let umax = v
-        .iter()
-        .fold(0.0f64, |m, p| m.max(p[0].abs()).max(p[1].abs()));
+    let tol = super::displacement_tolerance(
+        crate::field::max_norm(v),
+        crate::field::max_norm(&mesh.points),
+    );
     for be in ctx.edges {
         let t = be.cell as usize;
         let straight = mesh.shape[t] == Shape::Affine;
@@ -106,7 +105,7 @@ pub fn data_terms(
                     continue;
                 };
                 match straight
-                    .then(|| lifting(ctx, v, t, be.local as usize, displacement, umax))
+                    .then(|| lifting(ctx, v, t, be.local as usize, displacement, tol))
                     .flatten()
                 {
                     Some((p, z)) => {
@@ -256,15 +255,15 @@ fn trace(
 }
 
 /// |||z_E|||_T of the module doc for the Dirichlet edge `l` of the straight cell `t`, or
-/// `None` when the data are not met at the edge's ends (beyond `ADMISSIBLE_RELATIVE` of
-/// max |v|) or not finite.
+/// `None` when the data are not met at the edge's ends (beyond `tol`, the round-off level of
+/// [`super::displacement_tolerance`]) or not finite.
 fn lifting(
     ctx: &Context,
     v: &[[f64; 2]],
     t: usize,
     l: usize,
     data: &[crate::expr::Expr; 2],
-    umax: f64,
+    tol: f64,
 ) -> Option<(f64, f64)> {
     let mesh = ctx.mesh;
     let (fam, x, nodes) = (mesh.family[t], mesh.coords(t), mesh.nodes(t));
@@ -275,7 +274,7 @@ fn lifting(
         let vv = sp.value_at(nodes, v);
         for i in 0..2 {
             let d = data[i].eval(sp.x[0], sp.x[1], 0.0) - vv[i];
-            if d.is_nan() || d.abs() > ADMISSIBLE_RELATIVE * umax {
+            if d.is_nan() || d.abs() > tol {
                 return None;
             }
         }

@@ -70,13 +70,27 @@ pub struct Admissibility {
     /// ([`crate::tolerance::ADMISSIBLE_RELATIVE`]).
     pub u_scale: f64,
     pub sigma_scale: f64,
+    /// max |x| over the mesh points: gaps and data are evaluated at coordinates this large
+    /// ([`crate::tolerance::COORDINATE_ROUNDOFF`]).
+    pub coordinate_scale: f64,
 }
 
 impl Admissibility {
+    /// The level below which a displacement violation (penetration, Dirichlet mismatch) is
+    /// round-off: [`displacement_tolerance`] of this check's scales.
+    pub fn displacement_tolerance(&self) -> f64 {
+        displacement_tolerance(self.u_scale, self.coordinate_scale)
+    }
+
+    /// The level below which a stress violation is round-off.
+    pub fn stress_tolerance(&self) -> f64 {
+        crate::tolerance::ADMISSIBLE_RELATIVE * self.sigma_scale
+    }
+
     /// The five kinds with their names, definitions and whether each is above round-off.
     pub fn kinds(&self) -> [(&'static str, &'static str, &Violation, bool); 5] {
-        let tu = crate::tolerance::ADMISSIBLE_RELATIVE * self.u_scale;
-        let ts = crate::tolerance::ADMISSIBLE_RELATIVE * self.sigma_scale;
+        let tu = self.displacement_tolerance();
+        let ts = self.stress_tolerance();
         [
             (
                 "penetration",
@@ -250,18 +264,17 @@ pub fn run(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Estimate {
     }
 }
 
-/// The admissibility checks that fail, as sentences (docs/design.md §5).
-pub fn failed_checks(
-    adm: &Admissibility,
-    u: &[[f64; 2]],
-    sigma_scale: f64,
-    frictional: bool,
-) -> Vec<String> {
-    let umax = u
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
-    let smax = sigma_scale;
-    let (tu, ts) = (ADMISSIBLE_TOLERANCE * umax, ADMISSIBLE_TOLERANCE * smax);
+/// The round-off level of a displacement check: ADMISSIBLE_RELATIVE × max |u_h| + COORDINATE_ROUNDOFF
+/// × max |x|, since the gap g(x) − u_n and the Dirichlet data are evaluated at points x of that
+/// size (docs/design.md §5, "Round-off").
+pub fn displacement_tolerance(u_scale: f64, coordinate_scale: f64) -> f64 {
+    ADMISSIBLE_TOLERANCE * u_scale + crate::tolerance::COORDINATE_ROUNDOFF * coordinate_scale
+}
+
+/// The admissibility checks that fail, as sentences (docs/design.md §5), each judged against
+/// the round-off levels of the check's own scales.
+pub fn failed_checks(adm: &Admissibility, frictional: bool) -> Vec<String> {
+    let (tu, ts) = (adm.displacement_tolerance(), adm.stress_tolerance());
     let mut out = Vec::new();
     let mut check = |v: &Violation, tol: f64, what: &str| {
         if v.max > tol {

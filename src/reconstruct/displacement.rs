@@ -114,10 +114,7 @@ pub fn reconstruct(ctx: &Context, sigma: StressField) -> Result<Reconstruction, 
         .filter(|e| e.0 == e.1)
         .fold(0.0f64, |m, e| m.max(e.2.abs()));
     let delta = 1e-10 * maxdiag;
-    let vscale = |v: &[[f64; 2]]| {
-        v.iter()
-            .fold(0.0f64, |m, x| m.max(x[0].abs()).max(x[1].abs()))
-    };
+    let vscale = crate::field::max_norm;
     let mut iterations = 0;
     let mut converged = false;
     let mut remedied = 0;

@@ -53,7 +53,7 @@ use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
-    EDGE_DEGREE, EDGE_OPEN_SAMPLES, FLOW_PASSES, KERNEL_ELIMINATION_CONDITION,
+    EDGE_DEGREE, EDGE_OPEN_SAMPLES, FLOW_PASS_DEFECT, FLOW_PASSES, KERNEL_ELIMINATION_CONDITION,
     KERNEL_PIVOT_RELATIVE, LOAD_DEGREE, MIN_CONE_FRICTION, OPEN_GAP_RELATIVE,
     PATCH_DEFECT_RELATIVE, PATCH_DEPENDENT_ROW,
 };
@@ -214,7 +214,7 @@ pub fn reconstruct(
             .filter(|be| matches!(be.condition, Condition::Contact(_)))
             .flat_map(|be| mesh.nodes(be.cell as usize).iter().copied())
             .fold(0.0f64, |m, n| {
-                m.max(u[n as usize][0].abs()).max(u[n as usize][1].abs())
+                m.max(u[n as usize][0].hypot(u[n as usize][1]))
             });
     for be in ctx.edges {
         // A contact edge where u_h is open at every sample carries no traction: it is
@@ -233,23 +233,24 @@ pub fn reconstruct(
     // P1 space, so ∫_T as τ_a = 0 would make most P1 patches infeasible.
     let weak_symmetry = mesh.degree >= 2 || order.k() >= 2;
     let vertices: Vec<usize> = (0..npts).filter(|&v| count[v + 1] > count[v]).collect();
-    // Rotation moments about one point for all patches (the flows compare them).
+    // Rotation moments about one point for all patches (the flows compare them): the mean of
+    // the points, and per unit of the largest distance from it, so that a rotated or moved
+    // mesh gets the same flows (the flows are orthogonal projections in the moment space
+    // (e_x, e_y, (x − x₀)^⊥/L), which a frame-dependent x₀ or L would skew: the Hertz P1 file
+    // turned by 107° about the origin had one contact patch with another active set, and its
+    // bound moved by 1e-4 of itself, with the bounding box's centre and half-width).
     let origin = {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in &mesh.points {
-            for c in 0..2 {
-                lo[c] = lo[c].min(p[c]);
-                hi[c] = hi[c].max(p[c]);
-            }
-        }
-        [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])]
+        let n = mesh.points.len().max(1) as f64;
+        let s = mesh
+            .points
+            .iter()
+            .fold([0.0; 2], |s, p| [s[0] + p[0], s[1] + p[1]]);
+        [s[0] / n, s[1] / n]
     };
-    // The rotation moments are taken per unit of this length (the flows compare them with the
-    // forces).
     let length = mesh
         .points
         .iter()
-        .map(|p| (p[0] - origin[0]).abs().max((p[1] - origin[1]).abs()))
+        .map(|p| (p[0] - origin[0]).hypot(p[1] - origin[1]))
         .fold(0.0f64, f64::max)
         .max(f64::MIN_POSITIVE);
     let recovered = recovered_strain(mesh, u);
@@ -313,14 +314,15 @@ pub fn reconstruct(
         .fold(0.0f64, f64::max);
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
-    // residual of the new solution is balanced again, up to FLOW_PASSES times.
+    // residual of the new solution is balanced again, up to FLOW_PASSES times while a defect is
+    // above FLOW_PASS_DEFECT (design §5.10, step 4).
     let mut passes = 0;
     // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
     let mut flow_cache = flow::FlowCache::default();
     while passes < FLOW_PASSES
-        && outs.iter().any(|o| {
-            (o.defect > PATCH_DEFECT_RELATIVE || !o.feasible) && o.cannot_take != [[0.0; 3]; 3]
-        })
+        && outs
+            .iter()
+            .any(|o| (o.defect > FLOW_PASS_DEFECT || !o.feasible) && o.cannot_take != [[0.0; 3]; 3])
     {
         let mut d = vec![[0.0; 3]; npts];
         let mut q = vec![[[0.0; 3]; 3]; npts];

@@ -38,10 +38,10 @@ pub fn nodal_violations(ctx: &Context, u: &[[f64; 2]]) -> usize {
 fn violating_nodes(ctx: &Context, u: &[[f64; 2]]) -> Vec<usize> {
     let (mesh, topo, scene, edges) = (ctx.mesh, ctx.topo, ctx.scene, ctx.edges);
     let (dir, con) = boundary_nodes(mesh, topo, scene, edges);
-    let umax = u
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
-    let tol = crate::estimate::ADMISSIBLE_TOLERANCE * umax;
+    let tol = crate::estimate::displacement_tolerance(
+        crate::field::max_norm(u),
+        crate::field::max_norm(&mesh.points),
+    );
     let mut out = Vec::new();
     for (p, d) in dir.iter().enumerate() {
         if let Some(ud) = d {

@@ -179,7 +179,7 @@ fn reconstruct_with(
         * inp
             .u
             .iter()
-            .fold(0.0f64, |m, v| m.max(v[0].abs()).max(v[1].abs()))
+            .fold(0.0f64, |m, v| m.max(v[0].hypot(v[1])))
             .max(f64::MIN_POSITIVE);
     for (e, c) in condition.iter().enumerate() {
         let Some((cond, cell, local)) = *c else {

@@ -544,7 +544,7 @@ mod tests {
                     let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, xi);
                     let (d, div) = delta.at(t, &sp.jac, xi);
                     scale = scale.max(d.iter().fold(0.0f64, |m, v| m.max(v.abs())));
-                    div_max = div_max.max(h * div[0].abs().max(div[1].abs()));
+                    div_max = div_max.max(h * div[0].hypot(div[1]));
                     let asv = w * sp.jac.det * (d[1] - d[2]);
                     mom[0] += asv;
                     mom[1] += asv * (xi[0] - 1.0 / 3.0);
