@@ -1,7 +1,8 @@
-//! The estimate and the bound do not depend on the frame: a file turned about the origin gives
-//! the same numbers (the energy error, the functional and the contact zone are invariant under
-//! rigid motions of the whole problem), and a file moved far from the origin keeps them to its
-//! coordinates' round-off without reporting that round-off as a violation.
+//! The estimate and the bound do not depend on the frame or on the numbering: a file turned
+//! about the origin gives the same numbers (the energy error, the functional and the contact
+//! zone are invariant under rigid motions of the whole problem), a file moved far from the
+//! origin keeps them to its coordinates' round-off without reporting that round-off as a
+//! violation, and a file whose points are numbered otherwise gives them to round-off.
 
 mod common;
 
@@ -293,5 +294,47 @@ fn turned_exact_solutions_stay_at_round_off() {
                 file.display()
             );
         }
+    }
+}
+
+/// `fixtures/<case>` with its points numbered in reverse (points, point arrays, connectivity).
+fn renumbered(case: &str) -> (tempfile::TempDir, PathBuf) {
+    let src = root().join("fixtures").join(case);
+    let mut file = read_vtu(&src.join("solution.vtu")).unwrap();
+    let n = file.points.len();
+    file.points.reverse();
+    for a in &mut file.point_data {
+        let k = a.components;
+        let old = a.values.clone();
+        for (i, t) in old.chunks(k).enumerate() {
+            a.values[(n - 1 - i) * k..(n - i) * k].copy_from_slice(t);
+        }
+    }
+    for p in &mut file.connectivity {
+        *p = (n - 1) as u32 - *p;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("solution.vtu");
+    write_vtu(&path, &file, Placement::AppendedRaw).unwrap();
+    std::fs::copy(src.join("scene.toml"), dir.path().join("scene.toml")).unwrap();
+    (dir, path)
+}
+
+/// The colour-ordered patch solves used to follow the point numbering: the same Hertz solution
+/// with its points renumbered gave η and the bound up to 0.9 % apart. The colouring now follows
+/// the points' positions (`reconstruct::patch`, design §5.10). (The bound of a quadrilateral
+/// file, taken on its triangle halves, still moves by ~3e-4: not understood yet, design §6.4.)
+#[test]
+fn a_renumbered_file_gives_the_same_estimate_and_bound() {
+    for case in ["hertz_skfem_p1", "hertz_skfem_p2", "hertz_ngsolve_p2"] {
+        let here = run(&root().join("fixtures").join(case).join("solution.vtu"));
+        let (_dir, file) = renumbered(case);
+        let there = run(&file);
+        let (e0, e1) = (here.eta.unwrap(), there.eta.unwrap());
+        assert!(relative(e1, e0) < 1e-7, "{case}: η {e0} → {e1}");
+        let x0 = here.bound.energy_error.unwrap();
+        let x1 = there.bound.energy_error.unwrap();
+        assert!(relative(x1, x0) < 1e-7, "{case}: bound {x0} → {x1}");
+        assert_eq!(here.bound.guaranteed, there.bound.guaranteed, "{case}");
     }
 }

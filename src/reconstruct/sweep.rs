@@ -517,10 +517,19 @@ mod tests {
             let mut after = before.clone();
             let info = sweep(&ctx, &u, &mut after, r.info.weak_symmetry, 1);
             assert!(info.colours >= 3, "{case}: {info:?}");
-            // On the Hertz mesh every patch took part, the curved ones included (a corner patch
-            // of the manufactured meshes has nothing to lower).
+            // On the Hertz mesh every patch took part, the curved ones included, except patches
+            // of one or two cells at the corners: their rows leave δ = 0 (their solves return
+            // |δ| ~ 1e-15, whose defect is round-off over round-off), so they have nothing to
+            // lower, as a corner patch of the manufactured meshes.
             if case.starts_with("hertz") {
-                assert_eq!(info.skipped, 0, "{case}: {info:?}");
+                let (start, _) = super::super::patch::vertex_patches(mesh);
+                let small = (0..mesh.points.len())
+                    .filter(|&v| (1..=2).contains(&(start[v + 1] - start[v])))
+                    .count();
+                assert!(
+                    info.skipped <= small,
+                    "{case}: {info:?}, {small} small patches"
+                );
             }
             let delta = RtStress {
                 order: before.order,
