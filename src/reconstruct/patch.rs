@@ -626,12 +626,20 @@ pub(super) fn geometric_order(points: &[[f64; 2]], mut vertices: Vec<usize>) -> 
         let along = ((p[0] * e1[0] + p[1] * e1[1]) / unit).round();
         (along, p[0] * e2[0] + p[1] * e2[1])
     };
-    vertices.sort_by(|&a, &b| {
-        let (ka, kb) = (key(a), key(b));
-        ka.0.total_cmp(&kb.0)
-            .then(ka.1.total_cmp(&kb.1))
-            .then(a.cmp(&b))
+    let mut keyed: Vec<(f64, f64, usize)> = vertices
+        .iter()
+        .map(|&v| {
+            let (a, b) = key(v);
+            (a, b, v)
+        })
+        .collect();
+    keyed.sort_unstable_by(|x, y| {
+        x.0.total_cmp(&y.0)
+            .then(x.1.total_cmp(&y.1))
+            .then(x.2.cmp(&y.2))
     });
+    vertices.clear();
+    vertices.extend(keyed.into_iter().map(|k| k.2));
     vertices
 }
 
@@ -2084,6 +2092,48 @@ fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `geometric_order` depends on the positions alone: a cloud without symmetry (a sheared,
+    /// unevenly filled ellipse) ordered after its points are renumbered, or turned by 107° and
+    /// moved, visits the same positions in the same sequence.
+    #[test]
+    fn geometric_order_follows_the_positions_not_the_numbering_or_the_frame() {
+        // A fixed pseudo-random cloud (linear congruential), denser on one side.
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let points: Vec<[f64; 2]> = (0..400)
+            .map(|_| {
+                let (r, a) = (
+                    next().powf(0.7),
+                    2.0 * std::f64::consts::PI * next().powi(2),
+                );
+                [3.0 * r * a.cos() + 0.5 * r * a.sin(), r * a.sin()]
+            })
+            .collect();
+        let n = points.len();
+        let base = geometric_order(&points, (0..n).collect());
+        // Renumbered: new index of old point i is (7i + 3) mod n (7 and 400 are coprime).
+        let new_of = |i: usize| (7 * i + 3) % n;
+        let mut renumbered = vec![[0.0; 2]; n];
+        for (i, p) in points.iter().enumerate() {
+            renumbered[new_of(i)] = *p;
+        }
+        let order = geometric_order(&renumbered, (0..n).collect());
+        let expected: Vec<usize> = base.iter().map(|&i| new_of(i)).collect();
+        assert_eq!(order, expected);
+        // Turned by 107° and moved.
+        let (c, s) = (107f64.to_radians().cos(), 107f64.to_radians().sin());
+        let turned: Vec<[f64; 2]> = points
+            .iter()
+            .map(|p| [c * p[0] - s * p[1] + 5.0, s * p[0] + c * p[1] - 2.0])
+            .collect();
+        assert_eq!(geometric_order(&turned, (0..n).collect()), base);
+    }
 
     /// Eliminating a cell's two free interior values through its two P_1 symmetry rows
     /// (`eliminate_kernel`) must give the minimiser of the problem with those values free and
