@@ -428,7 +428,7 @@ pub fn reconstruct(
     for (i, &v) in vertices.iter().enumerate() {
         index[v] = i;
     }
-    for group in colour_vertices(mesh, &count, &members) {
+    for group in colour_vertices(mesh, &count, &members, boundary_hint(ctx)) {
         let ids: Vec<usize> = group.iter().map(|&v| index[v]).collect();
         for chunk in ids.chunks(FINAL_CHUNK) {
             let finals: Vec<PatchOut> = {
@@ -531,15 +531,20 @@ pub(super) fn vertex_patches(mesh: &Mesh) -> (Vec<u32>, Vec<(u32, u8)>) {
 }
 
 /// The vertices with a patch, by colour of a greedy colouring of the vertex graph in the
-/// [`geometric_order`]: two vertices of one cell get different colours, so two patches of one
-/// colour share no cell. `start`, `cells`: [`vertex_patches`].
-pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -> Vec<Vec<usize>> {
+/// [`geometric_order`] (with `hint`): two vertices of one cell get different colours, so two
+/// patches of one colour share no cell. `start`, `cells`: [`vertex_patches`].
+pub(super) fn colour_vertices(
+    mesh: &Mesh,
+    start: &[u32],
+    cells: &[(u32, u8)],
+    hint: Option<[f64; 2]>,
+) -> Vec<Vec<usize>> {
     let npts = mesh.points.len();
     let mut colour = vec![u16::MAX; npts];
     let mut used: Vec<bool> = Vec::new();
     let mut ncol = 0usize;
     let vertices: Vec<usize> = (0..npts).filter(|&v| start[v + 1] > start[v]).collect();
-    for v in geometric_order(&mesh.points, vertices) {
+    for v in geometric_order(&mesh.points, vertices, hint) {
         used.iter_mut().for_each(|u| *u = false);
         for &(t, _) in &cells[start[v] as usize..start[v + 1] as usize] {
             for &w in &mesh.nodes(t as usize)[..3] {
@@ -565,6 +570,25 @@ pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -
     by_colour
 }
 
+/// The mean of the contact edges' midpoints, else of the Dirichlet edges' (None without
+/// either): a point of the problem that a rotation or a renumbering carries along, which
+/// [`geometric_order`] uses where the cloud of vertices alone has no preferred direction.
+pub(super) fn boundary_hint(ctx: &Context) -> Option<[f64; 2]> {
+    let mean = |pick: &dyn Fn(&Condition) -> bool| {
+        let (mut s, mut k) = ([0.0; 2], 0usize);
+        for be in ctx.edges.iter().filter(|be| pick(&be.condition)) {
+            let [a, b] = ctx.topo.edges[be.edge as usize];
+            let (pa, pb) = (ctx.mesh.points[a as usize], ctx.mesh.points[b as usize]);
+            s[0] += 0.5 * (pa[0] + pb[0]);
+            s[1] += 0.5 * (pa[1] + pb[1]);
+            k += 1;
+        }
+        (k > 0).then(|| [s[0] / k as f64, s[1] / k as f64])
+    };
+    mean(&|c| matches!(c, Condition::Contact(_)))
+        .or_else(|| mean(&|c| matches!(c, Condition::Dirichlet(_))))
+}
+
 /// `vertices` sorted by a key of their positions alone, so that the colouring, and with it the
 /// colour-ordered patch solves, do not depend on the point numbering (a file renumbered, or
 /// merged from pieces or exploded cells, gave η and the bound up to 0.9 % apart before), nor,
@@ -575,8 +599,14 @@ pub(super) fn colour_vertices(mesh: &Mesh, start: &[u32], cells: &[(u32, u8)]) -
 /// then (x − c)·e₂, a sweep across the body as a mesh generator's numbering often is (sorting by
 /// distance from c instead raised the Q1 manufactured index at n = 4 from 1.48 to 1.59). A cloud
 /// without a principal axis or a sign (both below 1e-9 of their scale: a square grid) takes the
-/// frame's axes instead: still independent of the numbering.
-pub(super) fn geometric_order(points: &[[f64; 2]], mut vertices: Vec<usize>) -> Vec<usize> {
+/// frame's axes instead, unless `hint` (a point the problem's data single out, [`boundary_hint`])
+/// is away from c: then e₁ is the direction from c to it turned by +90° (a sweep along that
+/// boundary; the unit-square meshes with contact below keep their x-major order).
+pub(super) fn geometric_order(
+    points: &[[f64; 2]],
+    mut vertices: Vec<usize>,
+    hint: Option<[f64; 2]>,
+) -> Vec<usize> {
     let n = vertices.len().max(1) as f64;
     let mut c = [0.0; 2];
     for &v in &vertices {
@@ -595,11 +625,18 @@ pub(super) fn geometric_order(points: &[[f64; 2]], mut vertices: Vec<usize>) -> 
     let tiny = 1e-9;
     let spread = sxx + syy;
     let anisotropy = ((sxx - syy).powi(2) + 4.0 * sxy * sxy).sqrt();
-    let mut e1 = if anisotropy > tiny * spread {
-        let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        [phi.cos(), phi.sin()]
-    } else {
-        [1.0, 0.0]
+    let towards = hint.map(|h| [h[0] - c[0], h[1] - c[1]]).and_then(|h| {
+        let l = h[0].hypot(h[1]);
+        (l > tiny * r).then(|| [h[0] / l, h[1] / l])
+    });
+    let isotropic = anisotropy <= tiny * spread;
+    let mut e1 = match (isotropic, towards) {
+        (false, _) => {
+            let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+            [phi.cos(), phi.sin()]
+        }
+        (true, Some(h)) => [-h[1], h[0]],
+        (true, None) => [1.0, 0.0],
     };
     let third = |e: [f64; 2]| -> f64 {
         vertices
@@ -612,7 +649,9 @@ pub(super) fn geometric_order(points: &[[f64; 2]], mut vertices: Vec<usize>) -> 
     };
     let scale = n * r.powi(3);
     let m1 = third(e1);
-    if m1.abs() > tiny * scale {
+    if isotropic && towards.is_some() {
+        // e₁ is fixed by the hint, sign included.
+    } else if m1.abs() > tiny * scale {
         if m1 < 0.0 {
             e1 = [-e1[0], -e1[1]];
         }
@@ -623,21 +662,18 @@ pub(super) fn geometric_order(points: &[[f64; 2]], mut vertices: Vec<usize>) -> 
     let unit = (tiny * r).max(f64::MIN_POSITIVE);
     let key = |v: usize| {
         let p = d(v);
-        let along = ((p[0] * e1[0] + p[1] * e1[1]) / unit).round();
+        // An integer, so that −0 and +0 (a turned file's round-off either side) are one row.
+        let along = ((p[0] * e1[0] + p[1] * e1[1]) / unit).round() as i64;
         (along, p[0] * e2[0] + p[1] * e2[1])
     };
-    let mut keyed: Vec<(f64, f64, usize)> = vertices
+    let mut keyed: Vec<(i64, f64, usize)> = vertices
         .iter()
         .map(|&v| {
             let (a, b) = key(v);
             (a, b, v)
         })
         .collect();
-    keyed.sort_unstable_by(|x, y| {
-        x.0.total_cmp(&y.0)
-            .then(x.1.total_cmp(&y.1))
-            .then(x.2.cmp(&y.2))
-    });
+    keyed.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
     vertices.clear();
     vertices.extend(keyed.into_iter().map(|k| k.2));
     vertices
@@ -2116,14 +2152,14 @@ mod tests {
             })
             .collect();
         let n = points.len();
-        let base = geometric_order(&points, (0..n).collect());
+        let base = geometric_order(&points, (0..n).collect(), None);
         // Renumbered: new index of old point i is (7i + 3) mod n (7 and 400 are coprime).
         let new_of = |i: usize| (7 * i + 3) % n;
         let mut renumbered = vec![[0.0; 2]; n];
         for (i, p) in points.iter().enumerate() {
             renumbered[new_of(i)] = *p;
         }
-        let order = geometric_order(&renumbered, (0..n).collect());
+        let order = geometric_order(&renumbered, (0..n).collect(), None);
         let expected: Vec<usize> = base.iter().map(|&i| new_of(i)).collect();
         assert_eq!(order, expected);
         // Turned by 107° and moved.
@@ -2132,7 +2168,7 @@ mod tests {
             .iter()
             .map(|p| [c * p[0] - s * p[1] + 5.0, s * p[0] + c * p[1] - 2.0])
             .collect();
-        assert_eq!(geometric_order(&turned, (0..n).collect()), base);
+        assert_eq!(geometric_order(&turned, (0..n).collect(), None), base);
     }
 
     /// Eliminating a cell's two free interior values through its two P_1 symmetry rows

@@ -80,7 +80,8 @@ pub fn sweep(
     }
     let (start, cells) = super::patch::vertex_patches(mesh);
     let patch = |v: usize| &cells[start[v] as usize..start[v + 1] as usize];
-    let by_colour = super::patch::colour_vertices(mesh, &start, &cells);
+    let by_colour =
+        super::patch::colour_vertices(mesh, &start, &cells, super::patch::boundary_hint(ctx));
     info.colours = by_colour.len();
     let mut dirichlet = vec![false; ctx.topo.edges.len()];
     for be in ctx.edges {
