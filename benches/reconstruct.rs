@@ -36,6 +36,11 @@
 //! 1 thread = a 1-thread rayon pool and `Par::Seq`; 2 = a 2-thread pool and `Par::rayon(2)`.
 //! `--no-threads` skips the 1-thread runs of the 100k case.
 
+// Only the mesh file and the process figures are shared (the displacement and scene are this
+// bench's own).
+#[allow(dead_code)]
+mod common;
+
 use std::io::Write;
 use std::path::Path;
 use std::process::Command;
@@ -127,19 +132,7 @@ fn square(cells: usize, degree: usize, disp: Disp) -> VtuFile {
             }
         }
     }
-    let mut f = VtuFile::from_cells(Path::new("bench.vtu"), pts, &c);
-    let mut u = Vec::with_capacity(2 * f.points.len());
-    for p in &f.points {
-        u.extend_from_slice(&disp.u(p[0], p[1]));
-    }
-    f.point_data.push(fosls::read::vtu::DataArray {
-        name: "displacement".into(),
-        scalar: fosls::read::decode::Scalar::Float64,
-        components: 2,
-        component_names: vec![],
-        values: u,
-    });
-    f
+    common::with_field(pts, &c, |x, y| disp.u(x, y))
 }
 
 fn scene(disp: Disp) -> Scene {
@@ -157,16 +150,6 @@ fn scene(disp: Disp) -> Scene {
         ),
     )
     .unwrap()
-}
-
-fn status_mib(key: &str) -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .unwrap_or_default()
-        .lines()
-        .find(|l| l.starts_with(key))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
 fn loadavg() -> String {
@@ -269,8 +252,8 @@ fn child(spec: &str) {
     let bounds = problem::classify(&data, &topo, &scene).unwrap();
     let setup = t_setup.elapsed().as_secs_f64();
     let ctx = problem::Context::new(&data.mesh, &topo, &scene, &bounds.edges, Norm::Energy);
-    let base_rss = status_mib("VmRSS:");
-    let base_hwm = status_mib("VmHWM:");
+    let base_rss = common::status_mib("VmRSS:");
+    let base_hwm = common::status_mib("VmHWM:");
 
     let mut best = f64::INFINITY;
     let mut times = Vec::new();
@@ -297,7 +280,7 @@ fn child(spec: &str) {
         StressField::Rt(&r.stress),
     );
     let estimate_time = t_est.elapsed().as_secs_f64();
-    let peak = status_mib("VmHWM:");
+    let peak = common::status_mib("VmHWM:");
 
     // The same pattern analysed again: distinct nonzeros, factor size, and the time of one
     // symbolic and one numeric factorisation of that pattern.

@@ -28,4 +28,7 @@ pub mod tolerance;
 pub mod topology;
 pub mod write;
 
+#[cfg(test)]
+mod testing;
+
 pub use error::{Error, Result};

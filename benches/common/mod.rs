@@ -1,5 +1,6 @@
-//! Shared by the patch and quadrilateral-bound benchmarks (`benches/patch.rs`,
-//! `benches/halves.rs`): their displacement, scene and process figures.
+//! Shared by the benchmarks (`benches/patch.rs`, `benches/halves.rs`, `benches/reconstruct.rs`):
+//! the patch benches' displacement and scene, a mesh file with a displacement array, and
+//! process figures.
 
 use std::path::Path;
 
@@ -32,17 +33,27 @@ pub fn grid(mx: usize, my: usize) -> Vec<[f64; 3]> {
 /// The file of the cells `c` (VTK type, nodes) on `pts`, with [`u_exact`] at every point as
 /// the point array "displacement".
 pub fn with_displacement(pts: Vec<[f64; 3]>, c: &[(u8, Vec<u32>)]) -> VtuFile {
+    with_field(pts, c, u_exact)
+}
+
+/// The file of the cells `c` on `pts`, with `u(x, y)` at every point as the point array
+/// "displacement".
+pub fn with_field(
+    pts: Vec<[f64; 3]>,
+    c: &[(u8, Vec<u32>)],
+    u: impl Fn(f64, f64) -> [f64; 2],
+) -> VtuFile {
     let mut f = VtuFile::from_cells(Path::new("bench.vtu"), pts, c);
-    let mut u = Vec::with_capacity(2 * f.points.len());
+    let mut values = Vec::with_capacity(2 * f.points.len());
     for p in &f.points {
-        u.extend_from_slice(&u_exact(p[0], p[1]));
+        values.extend_from_slice(&u(p[0], p[1]));
     }
     f.point_data.push(fosls::read::vtu::DataArray {
         name: "displacement".into(),
         scalar: fosls::read::decode::Scalar::Float64,
         components: 2,
         component_names: vec![],
-        values: u,
+        values,
     });
     f
 }

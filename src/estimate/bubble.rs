@@ -236,15 +236,10 @@ mod tests {
 
     /// Fixed coefficients in [−1, 1] (a linear congruential sequence).
     fn coefficients(seed: u64) -> [f64; N] {
-        let mut x = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        std::array::from_fn(|_| {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        })
+        let mut uniform = crate::testing::uniform(seed);
+        // The first state is skipped (as the sequence was first written).
+        uniform();
+        std::array::from_fn(|_| uniform() * 2.0 - 1.0)
     }
 
     fn points(f: impl Fn([f64; 3], [f64; 2]) -> ([f64; 4], [f64; 2])) -> Vec<Point> {

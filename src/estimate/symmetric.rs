@@ -1065,13 +1065,8 @@ mod curved_tests {
 
     /// An RT_k stress with ∫_T as τ = 0: pseudo-random coefficients c₁ − (M₁/M₂) c₂.
     fn mean_free_rt(order: RtOrder, nodes: &[[f64; 2]; 6]) -> [[f64; 15]; 2] {
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut uniform = crate::testing::uniform(12345);
+        let mut rnd = || uniform() * 2.0 - 1.0;
         let mut c1 = [[0.0; 15]; 2];
         let mut c2 = [[0.0; 15]; 2];
         for r in 0..2 {
@@ -1207,13 +1202,7 @@ mod curved_tests {
 
     #[test]
     fn the_reference_split_correction_matches_the_physical_one_on_random_cells() {
-        let mut seed = 987654321u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::testing::uniform(987654321);
         for trial in 0..20 {
             let mut v = [[0.0; 2]; 3];
             for p in v.iter_mut() {

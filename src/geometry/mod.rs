@@ -416,12 +416,9 @@ mod tests {
             }
         }
         let mut disc = Vec::new();
-        let mut seed = 12345u64;
+        let mut uniform = crate::testing::uniform(12345);
         for k in 0..500 {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let r = (seed >> 11) as f64 / (1u64 << 53) as f64;
+            let r = uniform();
             let t = k as f64 * 0.7;
             let r = if k % 5 == 0 { 1.0 } else { r };
             disc.push([2.0 + r * t.cos(), -1.0 + r * t.sin()]);

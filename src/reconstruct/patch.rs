@@ -2135,13 +2135,7 @@ mod tests {
     #[test]
     fn geometric_order_follows_the_positions_not_the_numbering_or_the_frame() {
         // A fixed pseudo-random cloud (linear congruential), denser on one side.
-        let mut seed = 12345u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::testing::uniform(12345);
         let points: Vec<[f64; 2]> = (0..400)
             .map(|_| {
                 let (r, a) = (
