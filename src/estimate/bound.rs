@@ -352,9 +352,11 @@ pub fn bound(
             let verts = [x[0], x[1], x[2]];
             let h = crate::geometry::diameter(fam, &x[..fam.nodes()]);
             let korn = korn_constant(verts);
+            // The centroid's offset from the first vertex (SubPoint::from: x − x̄ keeps the
+            // digits of the cell's size on a mesh far from the origin).
             let centre = [
-                (verts[0][0] + verts[1][0] + verts[2][0]) / 3.0,
-                (verts[0][1] + verts[1][1] + verts[2][1]) / 3.0,
+                ((verts[1][0] - verts[0][0]) + (verts[2][0] - verts[0][0])) / 3.0,
+                ((verts[1][1] - verts[0][1]) + (verts[2][1] - verts[0][1])) / 3.0,
             ];
             let mut c = Cell {
                 korn,
@@ -423,7 +425,8 @@ pub fn bound(
                 };
                 let r = [d[0] + fv[0], d[1] + fv[1]];
                 r2 += w * (r[0] * r[0] + r[1] * r[1]);
-                let rot = [-(sp.x[1] - centre[1]), sp.x[0] - centre[0]];
+                let d = sp.from(verts[0]);
+                let rot = [-(d[1] - centre[1]), d[0] - centre[0]];
                 mom[0] += w * r[0];
                 mom[1] += w * r[1];
                 mom[2] += w * (r[0] * rot[0] + r[1] * rot[1]);

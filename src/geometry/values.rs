@@ -174,12 +174,20 @@ pub fn jacobian(x: &[[f64; 2]], n: usize, g: &[[f64; 2]; MAX_NODES]) -> Jacobian
 /// x(ξ) = x_0 + Σ_i (x_i − x_0) φ_i(ξ).
 #[inline]
 pub fn position(x: &[[f64; 2]], n: usize, phi: &[f64; MAX_NODES]) -> [f64; 2] {
+    let p = offset(x, n, phi);
+    [p[0] + x[0][0], p[1] + x[0][1]]
+}
+
+/// Σ_i (x_i − x_0) φ_i(ξ) = x(ξ) − x_0, before x_0 is added: of the cell's size, so it keeps
+/// the digits that adding x_0 (of the mesh's distance from the origin) rounds away.
+#[inline]
+fn offset(x: &[[f64; 2]], n: usize, phi: &[f64; MAX_NODES]) -> [f64; 2] {
     let mut p = [0.0; 2];
     for i in 1..n {
         p[0] += (x[i][0] - x[0][0]) * phi[i];
         p[1] += (x[i][1] - x[0][1]) * phi[i];
     }
-    [p[0] + x[0][0], p[1] + x[0][1]]
+    p
 }
 
 /// Geometry of one cell at the points of a [`Table`], refilled by [`CellValues::reinit`]
@@ -476,9 +484,11 @@ pub fn invert(family: Family, x: &[[f64; 2]], target: [f64; 2], guess: [f64; 2])
     let mut xi = guess;
     for _ in 0..tolerance::INVERSE_MAP_ITERATIONS {
         let (phi, g) = family.shape(xi);
-        let p = position(x, n, &phi);
         let j = jacobian(x, n, &g);
-        let r = [p[0] - target[0], p[1] - target[1]];
+        // x(ξ) − target as (x(ξ) − x_0) − (target − x_0): differences of nearby points, so the
+        // residual can reach ε h rather than the ε|x| of an absolute position.
+        let p = offset(x, n, &phi);
+        let r = [p[0] - (target[0] - x[0][0]), p[1] - (target[1] - x[0][1])];
         let m = j.inverse;
         let d = [
             m[0][0] * r[0] + m[0][1] * r[1],
@@ -498,6 +508,10 @@ pub fn invert(family: Family, x: &[[f64; 2]], target: [f64; 2], guess: [f64; 2])
 #[derive(Clone, Copy, Debug)]
 pub struct SubPoint {
     pub x: [f64; 2],
+    /// x = base + offset: the map's first node and the point's offset from it ([`offset`]),
+    /// for differences x − p that keep the digits of the cell's size ([`SubPoint::from`]).
+    base: [f64; 2],
+    offset: [f64; 2],
     /// The parent's reference point.
     pub xi: [f64; 2],
     /// The sub-triangle's Jacobian (the Piola map of RT fields).
@@ -508,6 +522,17 @@ pub struct SubPoint {
 }
 
 impl SubPoint {
+    /// x − p for a point p of this cell or near it, as (x_0 − p) + Σ_i (x_i − x_0) φ_i: both
+    /// parts are differences of nearby coordinates, so a mesh far from the origin (|x| ≫ h)
+    /// loses nothing, where (x − p) would carry the ε|x| of x's rounding (design §5.1, "Frame").
+    #[inline]
+    pub fn from(&self, p: [f64; 2]) -> [f64; 2] {
+        [
+            self.offset[0] + (self.base[0] - p[0]),
+            self.offset[1] + (self.base[1] - p[1]),
+        ]
+    }
+
     /// Σ_i `u[nodes[i]]` φ_i: a nodal vector field of the parent cell (global values `u`).
     #[inline]
     pub fn value_at(&self, nodes: &[u32], u: &[[f64; 2]]) -> [f64; 2] {
@@ -585,8 +610,11 @@ fn triangle_point(
     for i in 0..n {
         grad[i] = jac.physical_gradient(g[i]);
     }
+    let off = offset(x, n, phi);
     SubPoint {
-        x: position(x, n, phi),
+        x: [off[0] + x[0][0], off[1] + x[0][1]],
+        base: x[0],
+        offset: off,
         xi,
         jac,
         phi: *phi,
@@ -613,7 +641,8 @@ pub fn sub_point(
     let (sf, y) = sub_nodes(family, x, shape == Shape::Curved, k);
     let (sphi, sg) = sf.shape(xi_sub);
     let js = jacobian(&y, sf.nodes(), &sg);
-    let xp = position(&y, sf.nodes(), &sphi);
+    let off = offset(&y, sf.nodes(), &sphi);
+    let xp = [off[0] + y[0][0], off[1] + y[0][1]];
     let (a, b) = sub_map(family, k);
     let guess = apply(a, b, xi_sub);
     let xi = if !family.is_quad() || shape == Shape::Affine {
@@ -629,6 +658,8 @@ pub fn sub_point(
     }
     SubPoint {
         x: xp,
+        base: y[0],
+        offset: off,
         xi,
         jac: js,
         phi,

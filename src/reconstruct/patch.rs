@@ -368,12 +368,11 @@ pub fn reconstruct(
             let Some(h) = edge_load(ctx, &cells, y, origin) else {
                 continue;
             };
-            for &(t, c, centre) in &h {
+            for &(t, c, from_centre) in &h {
                 // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
-                let xt = anchor(mesh, t as usize);
                 let c = [
-                    c[0] - c[2] * (xt[1] - centre[1]),
-                    c[1] + c[2] * (xt[0] - centre[0]),
+                    c[0] - c[2] * from_centre[1],
+                    c[1] + c[2] * from_centre[0],
                     c[2],
                 ];
                 for (vertex, sign) in [(a as usize, -1.0), (b as usize, 1.0)] {
@@ -860,16 +859,16 @@ type Extra = [f64; 4];
 /// Patches solved at once in the last stage, whose cell coefficients are then summed.
 const FINAL_CHUNK: usize = 16_384;
 
-/// The point the flow loads of cell t turn about: the mean of its corner vertices.
+/// The point the flow loads of cell t turn about: its first node, a coordinate of the file, so
+/// that x − x_T keeps the digits of the cell's size however far the mesh is from the origin
+/// ([`crate::geometry::values::SubPoint::from`]; the mean of the corners was rounded to ε|x|, which left the Hertz P1
+/// file moved to |x| = 3e4 equilibrated to 4.6e-9 instead of 1e-13).
 fn anchor(mesh: &Mesh, t: usize) -> [f64; 2] {
-    let x = mesh.coords(t);
-    [
-        (x[0][0] + x[1][0] + x[2][0]) / 3.0,
-        (x[0][1] + x[1][1] + x[2][1]) / 3.0,
-    ]
+    mesh.coords(t)[0]
 }
 
-/// One cell's part of an edge load: the cell, (c₀, c₁, c₂) and the centre x̄.
+/// One cell's part of an edge load: the cell, (c₀, c₁, c₂) and x_T − x̄ (its anchor's offset
+/// from the centre).
 type EdgeLoad = (u32, [f64; 3], [f64; 2]);
 
 /// The load h_E on the cells of an edge with rigid-motion moments y = (∫h·e_x, ∫h·e_y,
@@ -880,6 +879,8 @@ type EdgeLoad = (u32, [f64; 3], [f64; 2]);
 fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Option<Vec<EdgeLoad>> {
     let mesh = ctx.mesh;
     let rule = triangle_rule_cached(4);
+    // Positions relative to the first cell's anchor x_r: differences of nearby points.
+    let reference = anchor(mesh, *cells.first()? as usize);
     let (mut area, mut first) = (0.0, [0.0; 2]);
     let mut pts: Vec<([f64; 2], f64)> = Vec::new();
     for &t in cells {
@@ -889,15 +890,17 @@ fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Opt
         for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
             let sp = sub_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, xi);
             let w = wq * sp.jac.det;
+            let p = sp.from(reference);
             area += w;
-            first[0] += w * sp.x[0];
-            first[1] += w * sp.x[1];
-            pts.push((sp.x, w));
+            first[0] += w * p[0];
+            first[1] += w * p[1];
+            pts.push((p, w));
         }
     }
     if area <= 0.0 {
         return None;
     }
+    // x̄ − x_r.
     let centre = [first[0] / area, first[1] / area];
     let second: f64 = pts
         .iter()
@@ -908,9 +911,24 @@ fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Opt
     }
     let c0 = y[0] / area;
     let c1 = y[1] / area;
-    let c2 =
-        (y[2] + area * (centre[1] - origin[1]) * c0 - area * (centre[0] - origin[0]) * c1) / second;
-    Some(cells.iter().map(|&t| (t, [c0, c1, c2], centre)).collect())
+    let from_origin = [
+        reference[0] - origin[0] + centre[0],
+        reference[1] - origin[1] + centre[1],
+    ];
+    let c2 = (y[2] + area * from_origin[1] * c0 - area * from_origin[0] * c1) / second;
+    Some(
+        cells
+            .iter()
+            .map(|&t| {
+                let xt = anchor(mesh, t as usize);
+                let d = [
+                    xt[0] - reference[0] - centre[0],
+                    xt[1] - reference[1] - centre[1],
+                ];
+                (t, [c0, c1, c2], d)
+            })
+            .collect(),
+    )
 }
 
 /// One patch: unknowns, local maps, quadrature, QP (module doc).
@@ -1235,8 +1253,9 @@ fn solve_patch_rows(
                 -psi * f[1] + sig[2] * gpsi[0] + sig[3] * gpsi[1],
             ];
             if let Some(ex) = extra.get(ci) {
-                target[0] += ex[0] - ex[2] * (sp.x[1] - xt[1]);
-                target[1] += ex[1] + ex[2] * (sp.x[0] - xt[0]);
+                let d = sp.from(xt);
+                target[0] += ex[0] - ex[2] * d[1];
+                target[1] += ex[1] + ex[2] * d[0];
             }
             // The divergence rows' right-hand sides (reference moments: the rows are
             // (div τ, q)_T = ∫_T̂ div̂ τ̂ q̂, condense.rs).
@@ -1815,7 +1834,8 @@ fn rotation_shares(
             ];
             let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
             for j in 0..3 {
-                let rho = [-(sp.x[1] - v[j][1]), sp.x[0] - v[j][0]];
+                let d = sp.from(v[j]);
+                let rho = [-d[1], d[0]];
                 alpha[j] -= w * lam[j] * (f[0] * rho[0] + f[1] * rho[1]);
             }
         }
@@ -1902,8 +1922,11 @@ fn rotation_shares(
             for (&sg, &wg) in rule.points.iter().zip(&rule.weights) {
                 let xs = [p[0] + sg * (q[0] - p[0]), p[1] + sg * (q[1] - p[1])];
                 let tv = [tr[0].eval(xs[0], xs[1], 0.0), tr[1].eval(xs[0], xs[1], 0.0)];
+                // x − x_a from differences of nearby points (SubPoint::from).
+                let along = [sg * (q[0] - p[0]), sg * (q[1] - p[1])];
                 for (a, j, psi) in [(p, l, 1.0 - sg), (q, (l + 1) % 3, sg)] {
-                    let rho = [-(xs[1] - a[1]), xs[0] - a[0]];
+                    let d = [along[0] + (p[0] - a[0]), along[1] + (p[1] - a[1])];
+                    let rho = [-d[1], d[0]];
                     alpha[j] -= wg * len * psi * (tv[0] * rho[0] + tv[1] * rho[1]);
                 }
             }
@@ -2319,7 +2342,8 @@ mod tests {
                         -lam[j] * f[0] + sig[0] * g[0] + sig[1] * g[1],
                         -lam[j] * f[1] + sig[2] * g[0] + sig[3] * g[1],
                     ];
-                    let rho = [-(sp.x[1] - xa[1]), sp.x[0] - xa[0]];
+                    let d = sp.from(xa);
+                    let rho = [-d[1], d[0]];
                     direct += w * (target[0] * rho[0] + target[1] * rho[1]);
                     scale += w * (target[0].abs() + target[1].abs()) * rho[0].hypot(rho[1]);
                 }

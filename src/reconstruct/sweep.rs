@@ -592,8 +592,8 @@ mod tests {
                             sub_edge_point(fam, &x[..fam.nodes()], mesh.shape[t], 0, l, s);
                         let (d, _) = delta.at(t, &sp.jac, xs);
                         let dn = [d[0] * n[0] + d[1] * n[1], d[2] * n[0] + d[3] * n[1]];
-                        let tv = ((sp.x[0] - pa[0]) * (pb[0] - pa[0])
-                            + (sp.x[1] - pa[1]) * (pb[1] - pa[1]))
+                        let dx = sp.from(pa);
+                        let tv = (dx[0] * (pb[0] - pa[0]) + dx[1] * (pb[1] - pa[1]))
                             / ((pb[0] - pa[0]).powi(2) + (pb[1] - pa[1]).powi(2));
                         for (m, q) in [1.0, tv, tv * tv].into_iter().enumerate() {
                             for r in 0..2 {
