@@ -283,6 +283,13 @@ pub const ASYMMETRY_WEIGHT: f64 = 4.0;
 /// misjudge the rank.
 pub const CONDENSATION_RANK: f64 = 1e-10;
 
+/// A dependent patch row whose right-hand side misses what the other rows give it by more than
+/// this fraction of the largest right-hand side disagrees with them (`reconstruct::qp`): then
+/// the rows are solved with the nearest right-hand side they can meet, instead of dropping the
+/// later row. Dependent rows of a Galerkin solution agree to round-off (~1e-14 of the loads);
+/// the disagreements that moved the Hertz Q2 halves' flows are 1e-6 to 1e-2 of them.
+pub const INCONSISTENT_ROW: f64 = 1e-10;
+
 /// A constraint row whose component orthogonal to the previous rows is below this fraction of
 /// its norm is dependent (dropped; its consistency shows in the defect).
 pub const PATCH_DEPENDENT_ROW: f64 = 1e-10;

@@ -277,7 +277,7 @@ fn a_file_far_from_the_origin_keeps_its_guaranteed_bound() {
     for (case, agree) in [
         ("hertz_skfem_p1", 1e-6),
         ("hertz_ngsolve_p1", 1e-6),
-        ("quad_hertz_skfem_q1", 1e-5),
+        ("quad_hertz_skfem_q1", 1e-6),
         ("quad_hertz_skfem_q2", 1e-3),
         ("quad_hertz_skfem_s2", 1e-3),
     ] {
@@ -363,8 +363,11 @@ fn renumbered(case: &str) -> (tempfile::TempDir, PathBuf) {
 
 /// The colour-ordered patch solves used to follow the point numbering: the same Hertz solution
 /// with its points renumbered gave η and the bound up to 0.9 % apart. The colouring now follows
-/// the points' positions (`reconstruct::patch`, design §5.10). (The bound of a quadrilateral
-/// file, taken on its triangle halves, still moves by ~3e-4: not understood yet, design §6.4.)
+/// the points' positions (`reconstruct::patch`, design §5.10). The quadrilateral files' bounds
+/// (on their triangle halves) moved by 3e-4 / 9e-4 / 5e-3 (Q1 / Q2 / S2): their contact patches
+/// had dependent rows that disagree, and which one the patch QP dropped, and where the penalised
+/// fallback stopped, followed the order of the unknowns (`reconstruct::qp`, design §5.10
+/// "Solver").
 #[test]
 fn a_renumbered_file_gives_the_same_estimate_and_bound() {
     for case in [
@@ -372,6 +375,9 @@ fn a_renumbered_file_gives_the_same_estimate_and_bound() {
         "hertz_skfem_p2",
         "hertz_ngsolve_p2",
         "manufactured_frictionless_p2_n16",
+        "quad_hertz_skfem_q1",
+        "quad_hertz_skfem_q2",
+        "quad_hertz_skfem_s2",
     ] {
         let here = run(&root().join("fixtures").join(case).join("solution.vtu"));
         let (_dir, file) = renumbered(case);
