@@ -40,8 +40,9 @@ use crate::tolerance::SWEEP_DEFECT;
 /// Sweeps run by default (`--sweeps`): none since the patches are solved colour by colour
 /// against the stress of the colours before (session 28, design §5.10), which takes most of
 /// what a sweep gave for the cost of none. Manufactured frictionless family, bound / true error
-/// at n = 4 / 8 / 16 / 32: colour-ordered patches P1 1.82 / 1.44 / 1.17 / 1.07, P2 1.90 / 1.46
-/// / 1.26 / 1.15; with one sweep on top P1 1.62 / 1.34 / 1.13 / 1.05, P2 1.88 / 1.45 / 1.25 /
+/// at n = 4 / 8 / 16 / 32: colour-ordered patches P1 1.82 / 1.44 / 1.17 / 1.07 (1.55 / 1.28 /
+/// 1.15 / 1.07 since session 33, design §5.10 "Solver"), P2 1.90 / 1.46 / 1.26 / 1.15; with one
+/// sweep on top P1 1.62 / 1.34 / 1.13 / 1.05, P2 1.88 / 1.45 / 1.25 /
 /// 1.13. (Independent patches: none P1 2.07 / 1.61 / 1.25 / 1.11, P2 1.95 / 1.53 / 1.37 / 1.30;
 /// one sweep P1 1.70 / 1.37 / 1.15 / 1.06, P2 1.89 / 1.45 / 1.25 / 1.14.) A sweep costs about
 /// 0.5 × the patch stage's CPU (1M P2 bench: 12.6 s on 2 threads against 23.9 s).
