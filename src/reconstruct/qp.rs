@@ -12,8 +12,11 @@
 //! 1. The rows of B are orthonormalised once (modified Gram–Schmidt, a second pass when the
 //!    first cancelled much of the row; a row whose
 //!    component orthogonal to the previous ones is below [`PATCH_DEPENDENT_ROW`] of its norm is
-//!    dependent and dropped, its right-hand side only showing in the defect): Q x = d_Q with
-//!    QQᵀ = I.
+//!    dependent and dropped): Q x = d_Q with QQᵀ = I. If a dropped row's right-hand side
+//!    disagrees with what the others give it (beyond [`INCONSISTENT_ROW`]), the later row would
+//!    be the one missed, so the rows are orthonormalised again with the nearest right-hand side
+//!    they can meet (`consistent_rhs`, independent of the order); the defect still shows the
+//!    rows as given.
 //! 2. One Cholesky factorisation of M and one of S = Q M⁻¹ Qᵀ give the equality-constrained
 //!    minimiser x₀ and the reduced inverse K = M⁻¹ − M⁻¹Qᵀ S⁻¹ Q M⁻¹ (only its columns at the
 //!    bounded variables). Every point of the dual path is x(λ) = x₀ − K E λ with λ ≥ 0 the bound
@@ -36,10 +39,12 @@
 //! caller's "hard" rows (the first ones; for the patches the equilibrium rows) exact and the
 //! others (the contact equalities) as a quadratic penalty (weight [`PATCH_QP_PENALTY`] relative
 //! to M), i.e. in the least-squares sense among the points satisfying the rest; if that is
-//! still infeasible, with all rows penalised. That last problem has bounds only and is always
-//! feasible, so there no bound counts as dependent unless its Schur complement is not positive
-//! (the penalty makes those of pinned bounds ~1/ρ, which the relative dependence test took for
-//! zero). The result says `feasible: false`, with the defect showing the violation.
+//! still infeasible, with all rows soft: the minimiser among the points of least violation of
+//! the unit rows (`least_violation_minimiser`), or, if that fails, with all rows penalised.
+//! That last problem has bounds only and is always feasible, so there no bound counts as
+//! dependent unless its Schur complement is not positive (the penalty makes those of pinned
+//! bounds ~1/ρ, which the relative dependence test took for zero). The result says
+//! `feasible: false`, with the defect showing the violation.
 //!
 //! Cost: one Cholesky M = LLᵀ (n³/3), one forward substitution of b, Qᵀ and the bounds' unit
 //! vectors (n² each), S = VᵀV with V = L⁻¹Qᵀ and its Cholesky, one back substitution of 1 + m
@@ -217,13 +222,12 @@ fn least_violation_minimiser(
 ) -> Option<(Vec<f64>, usize)> {
     let n = b.len();
     // Unit rows (zero rows dropped) and their right-hand sides.
-    let (mut unit, mut du, mut norms) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut unit, mut du) = (Vec::new(), Vec::new());
     for (row, &dk) in rows.chunks_exact(n.max(1)).zip(d) {
         let norm = dot(row, row).sqrt();
         if norm > 0.0 {
             unit.extend(row.iter().map(|v| v / norm));
             du.push(dk / norm);
-            norms.push(norm);
         }
     }
     let (held, pinned) = least_violation(n, &unit, &du, bounded)?;
