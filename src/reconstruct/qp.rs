@@ -281,36 +281,10 @@ fn least_violation(
     for &p in bounded {
         is_bounded[p] = true;
     }
-    // An orthonormal basis U of range Q_F (modified Gram–Schmidt, twice, over the free columns).
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    for j in (0..n).filter(|&j| !is_bounded[j]) {
-        let mut v = column(j);
-        let norm0 = dot(&v, &v).sqrt();
-        if norm0 == 0.0 {
-            continue;
-        }
-        for _ in 0..2 {
-            for u in &basis {
-                let a = dot(u, &v);
-                v.iter_mut().zip(u).for_each(|(vi, ui)| *vi -= a * ui);
-            }
-        }
-        let norm = dot(&v, &v).sqrt();
-        if norm > PATCH_DEPENDENT_ROW * norm0 {
-            v.iter_mut().for_each(|vi| *vi /= norm);
-            basis.push(v);
-        }
-        if basis.len() == r {
-            break;
-        }
-    }
+    // An orthonormal basis U of range Q_F, and P⊥ = I − UUᵀ.
+    let basis = orthonormal_basis((0..n).filter(|&j| !is_bounded[j]).map(column), r);
     let project = |mut v: Vec<f64>| {
-        for _ in 0..2 {
-            for u in &basis {
-                let a = dot(u, &v);
-                v.iter_mut().zip(u).for_each(|(vi, ui)| *vi -= a * ui);
-            }
-        }
+        remove_components(&basis, &mut v);
         v
     };
     // E = −A (columns for z = −y ≥ 0) and c.
@@ -335,6 +309,39 @@ fn least_violation(
         .map(|((&p, _), _)| p)
         .collect();
     held.iter().all(|v| v.is_finite()).then_some((held, pinned))
+}
+
+/// An orthonormal basis of the span of `vectors` (modified Gram–Schmidt, each vector twice;
+/// one whose remainder is below [`PATCH_DEPENDENT_ROW`] of its norm is dependent), stopping at
+/// `dim`, the dimension of their space.
+fn orthonormal_basis(vectors: impl Iterator<Item = Vec<f64>>, dim: usize) -> Vec<Vec<f64>> {
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for mut v in vectors {
+        let norm0 = dot(&v, &v).sqrt();
+        if norm0 == 0.0 {
+            continue;
+        }
+        remove_components(&basis, &mut v);
+        let norm = dot(&v, &v).sqrt();
+        if norm > PATCH_DEPENDENT_ROW * norm0 {
+            v.iter_mut().for_each(|vi| *vi /= norm);
+            basis.push(v);
+        }
+        if basis.len() == dim {
+            break;
+        }
+    }
+    basis
+}
+
+/// v ← (I − UUᵀ)v for the orthonormal `basis` U, by modified Gram–Schmidt run twice.
+fn remove_components(basis: &[Vec<f64>], v: &mut [f64]) {
+    for _ in 0..2 {
+        for u in basis {
+            let a = dot(u, v);
+            v.iter_mut().zip(u).for_each(|(vi, ui)| *vi -= a * ui);
+        }
+    }
 }
 
 /// min ‖Σ_j z_j e_j − c‖ over z ≥ 0 (Lawson–Hanson's NNLS; columns `e`, a few dozen at most).
@@ -401,13 +408,15 @@ fn nnls(e: &[Vec<f64>], c: &[f64]) -> Option<(Vec<f64>, f64)> {
             return Some((z, tol));
         };
         passive[t] = true;
-        if solve(&passive).is_none() {
+        let Some(mut s) = solve(&passive) else {
             // Dependent on the passive set: it cannot lower the residual further.
             passive[t] = false;
             return Some((z, tol));
-        }
-        for _ in 0..=m {
-            let s = solve(&passive)?;
+        };
+        for step in 0..=m {
+            if step > 0 {
+                s = solve(&passive)?;
+            }
             if (0..m).filter(|&j| passive[j]).all(|j| s[j] > 0.0) {
                 z = s;
                 break;
@@ -534,9 +543,8 @@ fn consistent_rhs(n: usize, rows: &[f64], d: &[f64]) -> Option<Vec<f64>> {
         .zip(&norms)
         .map(|(dk, &nk)| if nk > 0.0 { dk / nk } else { 0.0 })
         .collect();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    for j in 0..n {
-        let mut v: Vec<f64> = (0..k)
+    let unit_column = |j: usize| -> Vec<f64> {
+        (0..k)
             .map(|i| {
                 if norms[i] > 0.0 {
                     rows[i * n + j] / norms[i]
@@ -544,26 +552,9 @@ fn consistent_rhs(n: usize, rows: &[f64], d: &[f64]) -> Option<Vec<f64>> {
                     0.0
                 }
             })
-            .collect();
-        let norm0 = dot(&v, &v).sqrt();
-        if norm0 == 0.0 {
-            continue;
-        }
-        for _ in 0..2 {
-            for u in &basis {
-                let a = dot(u, &v);
-                v.iter_mut().zip(u).for_each(|(vi, ui)| *vi -= a * ui);
-            }
-        }
-        let norm = dot(&v, &v).sqrt();
-        if norm > PATCH_DEPENDENT_ROW * norm0 {
-            v.iter_mut().for_each(|vi| *vi /= norm);
-            basis.push(v);
-        }
-        if basis.len() == k {
-            break;
-        }
-    }
+            .collect()
+    };
+    let basis = orthonormal_basis((0..n).map(unit_column), k);
     let mut out = vec![0.0; k];
     for u in &basis {
         let a = dot(u, &du);
