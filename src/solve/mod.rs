@@ -531,26 +531,20 @@ mod tests {
         assert!(info.kkt_residual < 1e-15);
     }
 
-    /// A deterministic pseudo-random sequence in [−1, 1) (64-bit LCG, top bits).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
+    /// A fixed pseudo-random sequence in [−1, 1): `testing::uniform` scaled (2u − 1 is exact).
+    fn symmetric(seed: u64) -> impl FnMut() -> f64 {
+        let mut u = crate::testing::uniform(seed);
+        move || 2.0 * u() - 1.0
     }
 
     /// A random sparse SPD matrix: K = BᵀB + 0.1 I with B sparse (about 3 entries a row),
     /// returned dense and as lower-triangle triplets with duplicates (each entry split in two).
-    fn random_spd(n: usize, rng: &mut Lcg) -> (Vec<Vec<f64>>, Lower) {
+    fn random_spd(n: usize, rng: &mut impl FnMut() -> f64) -> (Vec<Vec<f64>>, Lower) {
         let mut bm = vec![vec![0.0; n]; n];
         for row in bm.iter_mut() {
             for _ in 0..3 {
-                let j = ((rng.next() + 1.0) * 0.5 * n as f64) as usize % n;
-                row[j] += rng.next();
+                let j = ((rng() + 1.0) * 0.5 * n as f64) as usize % n;
+                row[j] += rng();
             }
         }
         let mut k = vec![vec![0.0; n]; n];
@@ -636,21 +630,21 @@ mod tests {
     /// with the same number of steps and active constraints, and a KKT point.
     #[test]
     fn schur_path_equals_refactorising_method() {
-        let mut rng = Lcg(7);
+        let mut rng = symmetric(7);
         let (mut several_steps, mut some_active) = (0, 0);
         for case in 0..60 {
             let n = 1 + case % 40;
             let (kd, kl) = random_spd(n, &mut rng);
-            let b: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let b: Vec<f64> = (0..n).map(|_| rng()).collect();
             let constrained: Vec<usize> = match case % 5 {
                 0 => Vec::new(),
                 1 => (0..n).collect(),
-                _ => (0..n).filter(|_| rng.next() < 0.2).collect(),
+                _ => (0..n).filter(|_| rng() < 0.2).collect(),
             };
             let guess: Vec<usize> = constrained
                 .iter()
                 .copied()
-                .filter(|_| rng.next() < -0.5)
+                .filter(|_| rng() < -0.5)
                 .collect();
             let (want, steps, active) = reference(&kd, &b, &constrained, &guess);
             let (x, info) = solve_bound_qp_from(&kl, &b, &constrained, MAX_STEPS, &guess).unwrap();
@@ -690,11 +684,11 @@ mod tests {
     /// K SPD makes the minimiser unique). The Schur path must return that point.
     #[test]
     fn schur_path_matches_enumeration() {
-        let mut rng = Lcg(11);
+        let mut rng = symmetric(11);
         for case in 0..12 {
             let n = 6 + case;
             let (kd, kl) = random_spd(n, &mut rng);
-            let b: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let b: Vec<f64> = (0..n).map(|_| rng()).collect();
             let constrained: Vec<usize> = (0..n).step_by(2).take(7).collect();
             let m = constrained.len();
             let mut found = Vec::new();
@@ -794,16 +788,16 @@ mod tests {
     /// same kind passes with a small estimate.
     #[test]
     fn singular_matrix_is_refused_or_flagged() {
-        let mut rng = Lcg(5);
+        let mut rng = symmetric(5);
         let (mut factorised, mut refused) = (0, 0);
         for case in 0..40 {
             let n = 4 + case % 17;
             let mut bm = vec![vec![0.0; n]; n - 1];
             for (r, row) in bm.iter_mut().enumerate() {
-                row[r] = 1.0 + rng.next().abs();
+                row[r] = 1.0 + rng().abs();
                 for _ in 0..3 {
-                    let j = ((rng.next() + 1.0) * 0.5 * n as f64) as usize % n;
-                    row[j] += rng.next();
+                    let j = ((rng() + 1.0) * 0.5 * n as f64) as usize % n;
+                    row[j] += rng();
                 }
             }
             let gram = |shift: f64| {
@@ -818,7 +812,7 @@ mod tests {
                 Lower { n, entries }
             };
             let k = gram(0.0);
-            let b: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let b: Vec<f64> = (0..n).map(|_| rng()).collect();
             let constrained = [n - 1];
             let is_constrained: Vec<bool> = (0..n).map(|i| i == n - 1).collect();
             factorised += usize::from(
