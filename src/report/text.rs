@@ -400,7 +400,7 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         if t.halves > 0.0 {
             let _ = writeln!(
                 o,
-                "  taken on the triangle halves of the quadrilaterals: |||ũ_h − u_h||| = {} added \
+                "  taken on a triangle split of the quadrilaterals: |||ũ_h − u_h||| = {} added \
                  (design §6.3)",
                 n(t.halves)
             );
