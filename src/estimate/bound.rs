@@ -78,8 +78,9 @@ pub struct BoundTerms {
     #[serde(default)]
     pub combination: String,
     /// |||ũ_h − u_h|||: on a mesh with quadrilaterals the bound is taken for the P2
-    /// interpolant ũ_h on the triangle halves (`estimate::halves`, design §6.3), and this
-    /// distance is added like the projection distance.
+    /// interpolant ũ_h on a triangle split (the halves, or four triangles about each centre;
+    /// `estimate::halves`, design §6.3), and this distance is added like the projection
+    /// distance.
     #[serde(default)]
     pub halves: f64,
     /// Largest local Korn constant K_T used.
