@@ -704,15 +704,16 @@ fn a_file_stress_that_is_not_equilibrated_leaves_the_bound_to_the_patch_stress()
 }
 
 /// The scikit-fem Hertz files on quadrilaterals (Q1, Q2, serendipity; distorted cells near the
-/// contact): the bound on the triangle halves is guaranteed on all three, above the true error
-/// of `reference/hertz/fine_error.py` (its committed `fine_errors.json`: the fine triangle
+/// contact): the bound on a triangle split is guaranteed on all three, above the true error of
+/// `reference/hertz/fine_error.py` (its committed `fine_errors.json`: the fine triangle
 /// reference, u_h located in the quadrilaterals and evaluated through their isoparametric maps,
 /// computed without fosls) plus the reference's own error bound, and within the index measured
 /// in session 34: Q1 1.64, Q2 2.38 (on the four triangles about each centre; 3.12 on the
-/// halves), S2 2.85 (on the halves; 3.34 on the four triangles): the split term |||ũ_h − u_h|||
-/// is a large part of the Q2 and S2 bounds (design §6.3). The Q2 one needs the halves of its most distorted cells cut
-/// along the other diagonal: with the diagonal 0–2 everywhere, K_T reached 40 and the bound was
-/// not guaranteed. The Q1 cells are no parallelograms, so its split term is not zero.
+/// halves), S2 2.85 (on the halves; 3.34 on the four triangles), so the limits also check that
+/// the smaller bound is the one reported. The split term |||ũ_h − u_h||| is a large part of the
+/// Q2 and S2 bounds (design §6.3). The Q2 halves need their most distorted cells cut along the
+/// other diagonal: with the diagonal 0–2 everywhere, K_T reached 40 and the bound was not
+/// guaranteed. The Q1 cells are no parallelograms, so its split term is not zero.
 #[test]
 fn hertz_quadrilateral_bounds_are_guaranteed_against_the_fine_reference() {
     let fine: serde_json::Value = serde_json::from_str(

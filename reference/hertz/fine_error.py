@@ -87,6 +87,10 @@ class Field:
                     break
         return r
 
+    def _outside(self, r):
+        """how far the reference points r (n,2) lie outside the reference triangle (0 inside)."""
+        return np.maximum.reduce([-r[:, 0], -r[:, 1], r[:, 0] + r[:, 1] - 1, np.zeros(len(r))])
+
     def locate(self, x, k=12, tol=1e-10):
         """-> cell id (-1 outside), reference coords, and for outside points the nearest-candidate cell."""
         n = len(x)
@@ -106,7 +110,7 @@ class Field:
                     break
                 c = cand[np.searchsorted(todo, sel), j]
                 r = self._newton(c, x[sel])
-                out = np.maximum.reduce([-r[:, 0], -r[:, 1], r[:, 0] + r[:, 1] - 1, np.zeros(len(sel))])
+                out = self._outside(r)
                 ok = out <= tol
                 cid[sel[ok]] = c[ok]
                 ref[sel[ok]] = r[ok]
@@ -145,8 +149,9 @@ class Field:
 
 class QuadField(Field):
     """Continuous isoparametric Q1 / Q2 (quad9) / serendipity (quad8) field in VTK node order on the
-    reference square [0, 1]^2 (reference/quads/qshape.py): the same location, gradient and energy as
-    Field, with Newton's method from the cell centre for the inverse map."""
+    reference square [0, 1]^2 (reference/quads/qshape.py): Field's location with the square's
+    inside test, Newton's method from the cell centre for the inverse map, gradient and energy
+    through qshape."""
 
     def __init__(self, X, cells, U, ctype, name=""):
         self.X, self.cells, self.U, self.name = np.asarray(X, float), np.asarray(cells, np.int64), np.asarray(U, float)[:, :2], name
@@ -175,34 +180,9 @@ class QuadField(Field):
                     break
         return r
 
-    def locate(self, x, k=12, tol=1e-10):
-        n = len(x)
-        cid = -np.ones(n, np.int64)
-        ref = np.zeros((n, 2))
-        best = -np.ones(n, np.int64)
-        bestref = np.zeros((n, 2))
-        bestout = np.full(n, np.inf)
-        todo = np.arange(n)
-        for kk in (k, 60):
-            if len(todo) == 0:
-                break
-            _, cand = self.tree.query(x[todo], k=min(kk, len(self.cells)))
-            for j in range(cand.shape[1]):
-                sel = todo[cid[todo] < 0]
-                if len(sel) == 0:
-                    break
-                c = cand[np.searchsorted(todo, sel), j]
-                r = self._newton(c, x[sel])
-                out = np.maximum.reduce([-r[:, 0], -r[:, 1], r[:, 0] - 1, r[:, 1] - 1, np.zeros(len(sel))])
-                ok = out <= tol
-                cid[sel[ok]] = c[ok]
-                ref[sel[ok]] = r[ok]
-                imp = out < bestout[sel]
-                bestout[sel[imp]] = out[imp]
-                best[sel[imp]] = c[imp]
-                bestref[sel[imp]] = r[imp]
-            todo = todo[cid[todo] < 0]
-        return cid, ref, best, bestref
+    def _outside(self, r):
+        """how far the reference points r (n,2) lie outside the reference square [0, 1]^2 (0 inside)."""
+        return np.maximum.reduce([-r[:, 0], -r[:, 1], r[:, 0] - 1, r[:, 1] - 1, np.zeros(len(r))])
 
     def grad(self, cid, ref):
         Xc = self.X[self.cells[cid]]

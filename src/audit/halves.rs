@@ -100,7 +100,7 @@ fn on_split(
 ) -> Bound {
     let halves = match split(ctx, data, u, pattern) {
         Ok(h) => h,
-        Err(why) => return refused(format!("the triangle halves of the mesh: {why}")),
+        Err(why) => return refused(format!("the triangle split of the mesh: {why}")),
     };
     let mut sub = Context::new(
         &halves.data.mesh,

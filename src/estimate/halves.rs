@@ -563,36 +563,45 @@ mod tests {
     use super::*;
     use crate::scene::Norm;
 
-    /// The finer split (m = 3, not the default) on the mixed P2/Q2 exact fixture, whose field
-    /// is quadratic: the split is conforming (its topology builds) with 2m² triangles per
-    /// quadrilateral and m² per triangle, it covers the fixture's area (expected.json, from
-    /// reference/quads), ũ_h is u_h (split term at round-off), and ½|||u_h|||² is the
-    /// reference's.
-    /// The four triangles about each centre on the exact fixtures (mixed P2/Q2, curved Q2,
-    /// serendipity; fields at most quadratic): 4 triangles per quadrilateral and the triangles
-    /// whole, the split covers the fixture's area (expected.json, from reference/quads), ũ_h is
-    /// u_h (split term at round-off), and ½|||u_h|||² is the reference's.
+    /// Splits of the exact fixtures, whose fields are at most quadratic: the finer lattice (m =
+    /// 3, not a default) on the mixed P2/Q2 mesh, with 2m² triangles per quadrilateral and m² per
+    /// triangle, and the four triangles about each centre on the mixed, curved Q2 and
+    /// serendipity meshes, with 4 per quadrilateral and the triangles whole. Each is conforming
+    /// (its topology builds), covers the fixture's area (expected.json, from reference/quads;
+    /// Σ det J through the P2 maps, curved ones too), ũ_h is u_h (split term at round-off), and
+    /// ½|||u_h|||² is the reference's.
     #[test]
-    fn the_cross_split_tiles_the_cells_and_keeps_a_quadratic_field() {
-        for case in [
-            "quad_exact_mixed_p2q2_energy",
-            "quad_exact_q2_curved_energy",
-            "quad_exact_s2_energy",
+    fn the_splits_tile_the_cells_and_keep_a_quadratic_field() {
+        let rule = triangle_rule_cached(4);
+        for (case, pattern) in [
+            ("quad_exact_mixed_p2q2_energy", Pattern::Lattice(3)),
+            ("quad_exact_mixed_p2q2_energy", Pattern::Cross),
+            ("quad_exact_q2_curved_energy", Pattern::Cross),
+            ("quad_exact_s2_energy", Pattern::Cross),
         ] {
             let fx = crate::problem::fixture(case);
             let ctx = fx.context(Norm::Energy);
             let u = fx.displacement();
-            let halves = split(&ctx, &fx.data, &u, Pattern::Cross).expect("a split");
+            let halves = split(&ctx, &fx.data, &u, pattern).expect("a split");
             let mesh = ctx.mesh;
             let quads = mesh.family.iter().filter(|f| f.is_quad()).count();
+            if case.contains("mixed") {
+                assert!(quads > 0 && quads < mesh.len(), "a mixed mesh");
+            }
             let sub = &halves.data.mesh;
-            assert_eq!(sub.len(), 4 * quads + (mesh.len() - quads), "{case}");
+            let (per_quad, per_triangle) = match pattern {
+                Pattern::Lattice(m) => (2 * m * m, m * m),
+                Pattern::Cross => (4, 1),
+            };
+            assert_eq!(
+                sub.len(),
+                per_quad * quads + per_triangle * (mesh.len() - quads),
+                "{case} {pattern:?}"
+            );
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join(format!("fixtures/{case}/expected.json"));
             let expected: serde_json::Value =
                 serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-            // The area of the P2 triangles through their maps (curved ones too).
-            let rule = triangle_rule_cached(4);
             let area: f64 = (0..sub.len())
                 .map(|s| {
                     let x = sub.coords(s);
@@ -610,51 +619,19 @@ mod tests {
             let reference = expected["energy"]["area"].as_f64().unwrap();
             assert!(
                 ((area - reference) / reference).abs() < 1e-13,
-                "{case}: {area} against {reference}"
+                "{case} {pattern:?}: {area} against {reference}"
             );
             let (d, energy) = distance(&ctx, &halves, &u);
             let reference = expected["energy"]["energy"].as_f64().unwrap();
             assert!(
                 d < 1e-12 * reference.sqrt(),
-                "{case}: |||ũ_h − u_h||| = {d:e}"
+                "{case} {pattern:?}: |||ũ_h − u_h||| = {d:e}"
             );
             assert!(
                 ((energy - reference) / reference).abs() < 1e-12,
-                "{case}: {energy} against {reference}"
+                "{case} {pattern:?}: {energy} against {reference}"
             );
         }
-    }
-
-    #[test]
-    fn a_finer_split_tiles_the_cells_and_keeps_a_quadratic_field() {
-        let case = "quad_exact_mixed_p2q2_energy";
-        let fx = crate::problem::fixture(case);
-        let ctx = fx.context(Norm::Energy);
-        let u = fx.displacement();
-        let m = 3;
-        let halves = split(&ctx, &fx.data, &u, Pattern::Lattice(m)).expect("a split");
-        let mesh = ctx.mesh;
-        let quads = mesh.family.iter().filter(|f| f.is_quad()).count();
-        assert!(quads > 0 && quads < mesh.len(), "a mixed mesh");
-        let sub = &halves.data.mesh;
-        assert_eq!(sub.len(), 2 * m * m * quads + m * m * (mesh.len() - quads));
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join(format!("fixtures/{case}/expected.json"));
-        let expected: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-        let area: f64 = (0..sub.len()).map(|s| 0.5 * sub.double_area(s)).sum();
-        let reference = expected["energy"]["area"].as_f64().unwrap();
-        assert!(
-            ((area - reference) / reference).abs() < 1e-13,
-            "{area} against {reference}"
-        );
-        let (d, energy) = distance(&ctx, &halves, &u);
-        let reference = expected["energy"]["energy"].as_f64().unwrap();
-        assert!(d < 1e-12 * reference.sqrt(), "|||ũ_h − u_h||| = {d:e}");
-        assert!(
-            ((energy - reference) / reference).abs() < 1e-12,
-            "{energy} against {reference}"
-        );
     }
 
     /// The Hertz Q1 file's cells are bilinear (no parallelograms): the split covers the same
