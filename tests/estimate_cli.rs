@@ -210,12 +210,14 @@ fn contact_zone_agrees_with_the_harness_on_every_contact_fixture() {
         // The harness measures where the file's gap is closed; fosls where the traction of
         // the file's stress is compressive (docs/design.md §5.8), which holds the gap zone
         // and exceeds it by the oscillations of the L² projected stress at the zone's ends
-        // (at most 9.6 %, on the coarse P1 NGSolve files; the default mode's reconstructed
-        // stress has no such tails, tests/othercodes.rs).
+        // (at most 17 %, on the P1 block-on-cylinder file, whose zone of 0.39 is 17 edges of
+        // ≈ 0.026 long: 0.033 at each end, between one and two edges; 9.6 % on the coarse P1
+        // NGSolve Hertz files; the default mode's reconstructed stress has no such tails,
+        // tests/othercodes.rs).
         let gap_zone = c["active_length"].as_f64().unwrap();
         let active = r.contact.active_length;
         assert!(
-            active >= 0.99 * gap_zone && active <= 1.15 * gap_zone,
+            active >= 0.99 * gap_zone && active <= 1.2 * gap_zone,
             "{case}: active length {active} against the closed-gap length {gap_zone}"
         );
         assert!(r.contact.stick_length + r.contact.slip_length <= active * (1.0 + 1e-12));

@@ -102,11 +102,16 @@ def assemble(dsc: Discretisation, E, nu):
 
 
 def solve_contact(dsc: Discretisation, K, top_nodes, uD, contact_nodes, friction=0.0, cscale=None,
-                  maxit=100, verbose=False):
-    """Hertz / block set-up: Dirichlet uD on top_nodes, plane y = 0 (gap = y), no load."""
+                  maxit=100, verbose=False, obstacle_gap=None):
+    """Hertz / block set-up: Dirichlet uD on top_nodes, plane y = 0 (gap = y), no load.
+    obstacle_gap: optional callable of the nodal x (array) returning an extra gap added to y, i.e. the
+    obstacle surface y = -obstacle_gap(x) below the plane (e.g. a rigid cylinder of radius R below y = 0:
+    R - sqrt(R^2 - x^2)); the contact direction stays (0, -1).  None: the plane y = 0."""
     top_nodes = np.asarray(top_nodes)
     cn = np.setdiff1d(np.asarray(contact_nodes), top_nodes)
     gap = dsc.nodes[cn, 1]
+    if obstacle_gap is not None:
+        gap = gap + np.asarray(obstacle_gap(dsc.nodes[cn, 0]), float)
     # initial guess: the rigid translation uD -> contact where it would penetrate, all stick
     state = np.where(gap + uD[1] < 0, 1 if friction > 0 else 2, 0)
     dvals = np.tile(np.asarray(uD, float), (len(top_nodes), 1))

@@ -19,13 +19,14 @@ def hertz_ab(P, E_, nu, R=1.0):
 
 
 def solve_skfem(tm, degree, nu, friction=0.0, mixed=False, contact_tags=(1,), top_tag=2, curved_tags=(),
-                cell_stress=False, uD=UD):
+                cell_stress=False, uD=UD, obstacle_gap=None):
+    """obstacle_gap: optional callable of the nodal x, extra gap below y = 0 (fem_skfem.solve_contact)."""
     t0 = time.time()
     d = S.Discretisation(tm, degree, curved_tags=curved_tags, mixed=mixed)
     K = S.assemble(d, E, nu)
     top = d.boundary_nodes([top_tag])
     cn = d.boundary_nodes(list(contact_tags))
-    res = S.solve_contact(d, K, top, uD, cn, friction=friction)
+    res = S.solve_contact(d, K, top, uD, cn, friction=friction, obstacle_gap=obstacle_gap)
     U, S4 = S.nodal_fields(d, E, nu, res["u"])
     cs = S.cell_stress(d, E, nu, res["u"]) if cell_stress else None
     info = dict(library="scikit-fem", method=("primal-dual active set (semismooth Newton) on nodal constraints"

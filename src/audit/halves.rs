@@ -98,7 +98,7 @@ fn on_split(
     sweeps: usize,
     pattern: Pattern,
 ) -> Bound {
-    let halves = match split(ctx, data, u, pattern) {
+    let halves = match split(ctx, &data.path, u, pattern) {
         Ok(h) => h,
         Err(why) => return refused(format!("the triangle split of the mesh: {why}")),
     };

@@ -218,6 +218,75 @@ struct Cell {
     symmetrised: bool,
 }
 
+/// [`bound`] on the P2 elevation of a P1 triangle mesh: every cell one P2 triangle with
+/// straight mid-edge nodes (`halves::split` with one sub-square), on which v, τ (a nodal τ
+/// with the mid-edge values of its linear interpolant), the admissibility and the pairings `f` are those of the P1 mesh, and where [`lift::lift`] can
+/// move the mid-edge nodes of the contact edges whose linear trace crosses a convex obstacle
+/// between admissible vertices (design §6.2, "Between nodes"). None when the elevation cannot
+/// be built.
+fn on_elevation(
+    ctx: &Context,
+    v: &[[f64; 2]],
+    sigma: StressField,
+    f: &Terms,
+    adm: &Admissibility,
+) -> Option<Bound> {
+    let elevated = super::halves::split(
+        ctx,
+        std::path::Path::new(""),
+        v,
+        super::halves::Pattern::Lattice(1),
+    )
+    .ok()?;
+    // Cell t of the elevation is cell t of the mesh, with the same vertex order, so the
+    // coefficients of τ and the per-cell contributions carry over as they are.
+    if elevated.parent.len() != ctx.mesh.len()
+        || elevated
+            .parent
+            .iter()
+            .enumerate()
+            .any(|(s, &t)| s != t as usize)
+    {
+        return None;
+    }
+    // A nodal stress gets the mid-edge values of its linear interpolant too (the split puts
+    // the node of edge e at index npts + e).
+    let (npts, edges) = (ctx.mesh.points.len(), &ctx.topo.edges);
+    if elevated.u.len() != npts + edges.len() {
+        return None;
+    }
+    let nodal: Vec<[f64; 4]> = match sigma {
+        StressField::Nodal(values) => values
+            .iter()
+            .copied()
+            .chain(edges.iter().map(|&[a, b]| {
+                let (a, b) = (values[a as usize], values[b as usize]);
+                std::array::from_fn(|i| 0.5 * (a[i] + b[i]))
+            }))
+            .collect(),
+        StressField::Rt(_) => Vec::new(),
+    };
+    let sigma = match sigma {
+        StressField::Nodal(_) => StressField::Nodal(&nodal),
+        rt => rt,
+    };
+    let mut sub = Context::new(
+        &elevated.data.mesh,
+        &elevated.topo,
+        ctx.scene,
+        &elevated.edges,
+        ctx.norm,
+    );
+    sub.length_scale = ctx.length_scale;
+    let mut b = bound(&sub, &elevated.u, sigma, f, adm);
+    b.statement = format!(
+        "{} (taken on the P2 elevation of the P1 mesh, where the mid-edge nodes of the contact \
+         edges that cross the obstacle are moved off it)",
+        b.statement
+    );
+    Some(b)
+}
+
 /// The bound for displacement `v` and stress `sigma` (docs/design.md §6).
 pub fn bound(
     ctx: &Context,
@@ -259,6 +328,15 @@ pub fn bound(
     // A P2 trace that crosses the obstacle between admissible nodes: the bound is taken for
     // the lifted v' (lift.rs), the lift's distance and pairing added.
     let tol = adm.displacement_tolerance();
+    // A P1 trace crosses a convex obstacle between its active nodes: the same lift on the P2
+    // elevation of the mesh.
+    if mesh.degree == 1
+        && adm.penetration.max > tol
+        && !frictional
+        && let Some(b) = on_elevation(ctx, v, sigma, f, adm)
+    {
+        return b;
+    }
     let lifted = if adm.penetration.max > tol && !frictional {
         lift::lift(ctx, v, sigma, tol)
     } else {

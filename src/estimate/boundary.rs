@@ -271,7 +271,7 @@ fn zeros(h: impl Fn(f64) -> f64, quadratic: bool) -> Vec<f64> {
 
 /// The largest value of `h` on [0, 1]: uniform samples, then a golden-section search around
 /// the best one (the maxima of the smooth pieces are found to round-off).
-fn maximum(h: impl Fn(f64) -> f64) -> (f64, f64) {
+pub(super) fn maximum(h: impl Fn(f64) -> f64) -> (f64, f64) {
     let mut best = (f64::NEG_INFINITY, 0.0);
     for i in 0..=EDGE_SAMPLES {
         let s = i as f64 / EDGE_SAMPLES as f64;

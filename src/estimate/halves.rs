@@ -17,6 +17,10 @@
 //!
 //! adds the interpolation distance, computed here by quadrature on the halves.
 //!
+//! On a P1 triangle mesh [`Pattern::Lattice`] with one sub-square is the P2 elevation (every
+//! cell one P2 triangle, ũ_h = u_h), on which `bound` lifts the mid-edge nodes of contact
+//! edges that cross the obstacle between their vertices (docs/design.md §6.2, "Between nodes").
+//!
 //! Why ũ_h keeps the admissibility of u_h: on every edge of the quadrilateral mesh the trace
 //! of u_h is a polynomial of degree ≤ 2 in the edge's own parameter (Q1: linear; Q2 and the
 //! serendipity element: quadratic), and the half's edge carries the same nodes with the same
@@ -24,6 +28,8 @@
 //! data and the complementarity pairing are those of u_h. Only the interior changes: on a
 //! parallelogram a Q1 field is a quadratic polynomial and ũ_h = u_h exactly; on other cells
 //! the distance is what the bound pays for the split.
+
+use std::path::Path;
 
 use crate::geometry::values::{invert, jacobian, sub_point};
 use crate::geometry::{Family, MAX_NODES, Shape};
@@ -137,7 +143,7 @@ fn least_angle(p: [[f64; 2]; 3]) -> f64 {
 /// parent point found by the inverse map.
 pub fn split(
     ctx: &Context,
-    data: &Dataset,
+    path: &Path,
     u: &[[f64; 2]],
     pattern: Pattern,
 ) -> Result<Halves, String> {
@@ -429,7 +435,7 @@ pub fn split(
         line_cell: Vec::new(),
     };
     let sub = Dataset {
-        path: data.path.clone(),
+        path: path.to_path_buf(),
         mesh: split_mesh,
         point_data: Vec::new(),
         cell_data: Vec::new(),
@@ -582,7 +588,7 @@ mod tests {
             let fx = crate::problem::fixture(case);
             let ctx = fx.context(Norm::Energy);
             let u = fx.displacement();
-            let halves = split(&ctx, &fx.data, &u, pattern).expect("a split");
+            let halves = split(&ctx, &fx.data.path, &u, pattern).expect("a split");
             let mesh = ctx.mesh;
             let quads = mesh.family.iter().filter(|f| f.is_quad()).count();
             if case.contains("mixed") {
@@ -644,7 +650,8 @@ mod tests {
         let fx = crate::problem::fixture("quad_hertz_skfem_q1");
         let ctx = fx.context(Norm::Energy);
         let u = fx.displacement();
-        let halves = split(&ctx, &fx.data, &u, Pattern::Lattice(SUB_SQUARES)).expect("a split");
+        let halves =
+            split(&ctx, &fx.data.path, &u, Pattern::Lattice(SUB_SQUARES)).expect("a split");
         let mesh = ctx.mesh;
         assert!(
             mesh.shape

@@ -16,12 +16,13 @@
 //! term. The complementarity pairing changes by
 //! ⟨τ_n, v'_n − v_n⟩ = Σ_E c_E ∫_E (−τ_n) φ_m n·n_m ds ≥ 0 for τ_n ≤ 0, which is added.
 
+use super::boundary::maximum;
 use crate::field::StressField;
 use crate::geometry::values::{sub_edge_point, sub_point};
 use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
-use crate::tolerance::{EDGE_DEGREE, LIFT_SAMPLES};
+use crate::tolerance::{EDGE_DEGREE, LIFT_REFINE, LIFT_SAMPLES};
 
 /// The lifted displacement and what it costs.
 pub struct Lift {
@@ -30,7 +31,8 @@ pub struct Lift {
     pub distance: f64,
     /// ⟨τ_n, v'_n − v_n⟩ ≥ 0, added to the complementarity term.
     pub complementarity: f64,
-    /// Largest (v'_n − g)⁺ at the samples after the lift.
+    /// Largest (v'_n − g)⁺ on the contact edges after the lift (`boundary::maximum`, as the
+    /// admissibility check finds it).
     pub max_after: f64,
     /// Edges lifted.
     pub edges: usize,
@@ -48,6 +50,8 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
     let mut out = v.to_vec();
     let mut cells = Vec::new();
     let mut moved: Vec<(usize, usize, f64, [f64; 2])> = Vec::new(); // (edge idx, mid, c, n_m)
+    // Largest (v'_n − g)⁺ on the contact edges, found as the admissibility check finds it.
+    let mut max_after: f64 = 0.0;
     for (ei, be) in ctx.edges.iter().enumerate() {
         let Condition::Contact(b) = be.condition else {
             continue;
@@ -70,22 +74,43 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
         }
         let (_, normal_m, _, _) = sub_edge_point(fam, &x[..6], sh, 0, l, 0.5);
         let nm = spec.direction(normal_m);
-        let mut c: f64 = 0.0;
-        for i in 1..LIFT_SAMPLES {
-            let s = i as f64 / LIFT_SAMPLES as f64;
+        // (v_n − g, φ_m n·n_m) at edge parameter s; None where the gap is infinite.
+        let at = |s: f64| {
             let (sp, normal, _, _) = sub_edge_point(fam, &x[..6], sh, 0, l, s);
             let cn = spec.direction(normal);
             let g = spec.gap_at(sp.x, cn);
-            if !g.is_finite() {
-                continue;
-            }
-            let u = sp.value_at(nodes, v);
-            let pen = cn[0] * u[0] + cn[1] * u[1] - g;
-            let phi = sp.phi[3 + l] * (cn[0] * nm[0] + cn[1] * nm[1]);
-            if pen > tol && phi > 0.0 {
+            g.is_finite().then(|| {
+                let u = sp.value_at(nodes, v);
+                (
+                    cn[0] * u[0] + cn[1] * u[1] - g,
+                    sp.phi[3 + l] * (cn[0] * nm[0] + cn[1] * nm[1]),
+                )
+            })
+        };
+        let lifted =
+            |c: f64| move |s: f64| at(s).map_or(f64::NEG_INFINITY, |(pen, phi)| pen - c * phi);
+        let mut c: f64 = 0.0;
+        for i in 1..LIFT_SAMPLES {
+            if let Some((pen, phi)) = at(i as f64 / LIFT_SAMPLES as f64)
+                && pen > tol
+                && phi > 0.0
+            {
                 c = c.max(pen / phi);
             }
         }
+        // The samples miss a crossing between them, next to an active node where φ_m is
+        // small (CalculiX's two-body Hertz file: 5.3e-10 at s ≈ 1/100 of a curved edge, the
+        // samples all admissible): the admissibility check's own maximiser then raises c until
+        // what is left is below tol / 2.
+        for _ in 0..LIFT_REFINE {
+            let (left, s) = maximum(lifted(c));
+            let phi = at(s).map_or(0.0, |a| a.1);
+            if left.is_nan() || left <= 0.5 * tol || phi <= 0.0 {
+                break;
+            }
+            c += left / phi;
+        }
+        max_after = max_after.max(maximum(lifted(c)).0);
         if c > 0.0 {
             moved.push((ei, mid as usize, c, nm));
             cells.push(t);
@@ -122,10 +147,9 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
             d2 += wq * sp.jac.det * (s[0] * eps[0] + 2.0 * s[1] * eps[1] + s[3] * eps[3]);
         }
     }
-    // The complementarity change and the penetration left, on the lifted edges.
+    // The complementarity change on the lifted edges.
     let lr = line_rule_cached(EDGE_DEGREE);
     let mut dc = 0.0;
-    let mut max_after: f64 = 0.0;
     for &(ei, _, c, nm) in &moved {
         let be = &ctx.edges[ei];
         let Condition::Contact(b) = be.condition else {
@@ -162,16 +186,6 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
             let tn = cn[0] * tr[0] + cn[1] * tr[1];
             let phi = sp.phi[3 + l] * (cn[0] * nm[0] + cn[1] * nm[1]);
             dc += wq * len * (-tn) * c * phi;
-        }
-        for i in 0..=LIFT_SAMPLES {
-            let s = i as f64 / LIFT_SAMPLES as f64;
-            let (sp, normal, _, _) = sub_edge_point(fam, &x[..6], sh, 0, l, s);
-            let cn = spec.direction(normal);
-            let g = spec.gap_at(sp.x, cn);
-            if g.is_finite() {
-                let u = sp.value_at(nodes, &out);
-                max_after = max_after.max(cn[0] * u[0] + cn[1] * u[1] - g);
-            }
         }
     }
     Some(Lift {
