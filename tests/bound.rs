@@ -515,7 +515,8 @@ fn quadrilateral_bounds_on_the_manufactured_family_are_above_the_true_error() {
 /// CalculiX CPE6 Hertz file with `normal = "body"` (float32 coordinates, so the body normal
 /// turns inside the edges) it left σ_t ≈ 2e5 on the frictionless contact and η = 2.1e5. The
 /// default run falls back to the global minimiser: the same η as `--stress global`, with the
-/// note saying so and no bound.
+/// note saying so, naming the likely cause (`normal = "body"` on a curved boundary), and no
+/// bound.
 #[test]
 fn auto_falls_back_to_the_global_minimiser_when_patches_cannot_be_met() {
     let src = root().join("fixtures/calculix_hertz_cpe6_penalty");
@@ -538,12 +539,21 @@ fn auto_falls_back_to_the_global_minimiser_when_patches_cannot_be_met() {
     let (code, global, err) = estimate(&file, &["--scene", scene_arg, "--stress", "global"]);
     assert!(code == 0 || code == 1, "{err}");
     let global = global.expect("a report");
+    let note = auto
+        .notes
+        .iter()
+        .find(|n| n.starts_with("the patch reconstruction could not meet the constraints"))
+        .unwrap_or_else(|| panic!("{:?}", auto.notes));
+    // The likely cause is named: the arc is curved and the scene measures along the body's
+    // normal, while CalculiX constrained u along the plane's.
     assert!(
-        auto.notes
-            .iter()
-            .any(|n| n.starts_with("the patch reconstruction could not meet the constraints")),
-        "{:?}",
-        auto.notes
+        note.ends_with(
+            "; the contact boundary \"contact\" is curved and the scene measures u_n and g \
+             along the body's normal (normal = \"body\", the default): if the solver \
+             constrained u along the plane's normal, normal = \"obstacle\" states its problem \
+             (docs/design.md §2.4)"
+        ),
+        "{note}"
     );
     let (a, g) = (auto.eta.unwrap(), global.eta.unwrap());
     assert!((a - g).abs() <= 1e-12 * g, "auto η {a}, global η {g}");

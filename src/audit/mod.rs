@@ -274,6 +274,60 @@ fn add_reconstructed(
     }
 }
 
+/// The likely cause when the patch stress of a curved contact boundary against a plane is not
+/// admissible under `normal = "body"` (the default), as a clause to append to the note: a
+/// solver that constrained u along the plane's normal solved another problem, whose nodal
+/// forces lie outside the cones of the tilted body normals (docs/design.md §2.4, §6.4).
+fn body_normal_hint(ctx: &problem::Context) -> Option<String> {
+    use crate::problem::Condition;
+    use crate::read::scene::{BoundaryKind, ContactNormal, Gap};
+    let mut names: Vec<&str> = Vec::new();
+    for (b, boundary) in ctx.scene.boundaries.iter().enumerate() {
+        let BoundaryKind::Contact(spec) = &boundary.kind else {
+            continue;
+        };
+        if spec.normal != ContactNormal::Body || !matches!(spec.gap, Gap::Plane { .. }) {
+            continue;
+        }
+        // Curved: the outward normals of its edges (at their midpoints) are not all one.
+        let mut first: Option<[f64; 2]> = None;
+        let curved = ctx
+            .edges
+            .iter()
+            .filter(|be| be.condition == Condition::Contact(b))
+            .any(|be| {
+                let t = be.cell as usize;
+                let fam = ctx.mesh.family[t];
+                let x = ctx.mesh.coords(t);
+                let (_, n, _, _) = crate::geometry::values::sub_edge_point(
+                    fam,
+                    &x[..fam.nodes()],
+                    ctx.mesh.shape[t],
+                    0,
+                    be.local as usize,
+                    0.5,
+                );
+                let n0 = *first.get_or_insert(n);
+                (n0[0] * n[1] - n0[1] * n[0]).abs() > crate::tolerance::CURVED_RELATIVE
+            });
+        if curved {
+            names.push(&boundary.name);
+        }
+    }
+    (!names.is_empty()).then(|| {
+        format!(
+            "; the contact boundary {} is curved and the scene measures u_n and g along the \
+             body's normal (normal = \"body\", the default): if the solver constrained u along \
+             the plane's normal, normal = \"obstacle\" states its problem (docs/design.md §2.4)",
+            names
+                .iter()
+                .map(|n| format!("\"{n}\""))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+}
+
 /// Why a patch stress with unmet patches cannot stand in for the file's under `auto`: the
 /// tension and cone checks it fails on Γ_C, or `None` when every patch was met or the sum
 /// stays admissible (docs/design.md §5.2). Unmet patches make the sum inadmissible only
@@ -604,8 +658,10 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                             "the patch reconstruction could not meet the constraints on {} \
                              patches (largest relative defect {:.1e}) and its stress is not \
                              admissible ({why}): the global minimiser was used instead, which \
-                             gives no bound",
-                            r.info.incompatible, r.info.max_defect
+                             gives no bound{}",
+                            r.info.incompatible,
+                            r.info.max_defect,
+                            body_normal_hint(&ctx).unwrap_or_default()
                         );
                         (None, Some(note))
                     }
