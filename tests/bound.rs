@@ -742,6 +742,39 @@ fn block_on_a_cylinder_bounds_are_guaranteed_against_the_fine_reference() {
     }
 }
 
+/// Coulomb files whose displacement crosses the obstacle between admissible nodes (scikit-fem
+/// P2 Hertz: 2.4e-6, CalculiX CPE6 Hertz: 6.1e-8, the manufactured P1 and P2 meshes at n = 4:
+/// 4.7e-5 and 1.1e-6) are lifted as frictionless ones are: the contact direction is the
+/// obstacle's normal or the edges are straight, so the move leaves v_t and the friction pairing
+/// as they are. The penetration leaves the failed hypotheses; the Tresca label stays, first.
+#[test]
+fn coulomb_files_crossing_the_obstacle_between_nodes_are_lifted() {
+    for (case, entry) in [
+        ("hertz_skfem_p2_coulomb", "solution.vtu"),
+        ("calculix_hertz_cpe6_friction", "hertz.vtu"),
+        ("manufactured_coulomb_p1_n04", "solution.vtu"),
+        ("manufactured_coulomb_p2_n04", "solution.vtu"),
+    ] {
+        let file = root().join(format!("fixtures/{case}/{entry}"));
+        let (code, r, err) = estimate(&file, &[]);
+        assert!(code == 0 || code == 1, "{case}: {err}");
+        let b = r.expect("a report").bound;
+        assert!(b.energy_error.is_some_and(f64::is_finite), "{case}");
+        assert!(!b.guaranteed, "{case}");
+        assert!(
+            b.failed_hypotheses[0].starts_with("Coulomb friction"),
+            "{case}: {:?}",
+            b.failed_hypotheses
+        );
+        assert!(
+            !b.failed_hypotheses.iter().any(|h| h.contains("penetrates")),
+            "{case}: {:?}",
+            b.failed_hypotheses
+        );
+        assert!(b.terms.expect("terms").projection > 0.0, "{case}");
+    }
+}
+
 /// A file stress that is admissible but not equilibrated (reference/exact's perturbed σ: the
 /// displacement is the exact solution, τ_yy = σ_yy + 0.1x(1 + y)) is what F uses under `auto`,
 /// and F is the hand integration's. It gives no bound itself (`--stress file`), so the bound

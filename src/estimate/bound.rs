@@ -332,13 +332,12 @@ pub fn bound(
     // elevation of the mesh.
     if mesh.degree == 1
         && adm.penetration.max > tol
-        && !frictional
         && let Some(b) = on_elevation(ctx, v, sigma, f, adm)
     {
         return b;
     }
-    let lifted = if adm.penetration.max > tol && !frictional {
-        lift::lift(ctx, v, sigma, tol)
+    let lifted = if adm.penetration.max > tol {
+        lift::lift(ctx, v, sigma, tol, frictional)
     } else {
         None
     };

@@ -15,13 +15,16 @@
 //! |||v' − v||| (computed by quadrature, exact for straight cells) is added to the projection
 //! term. The complementarity pairing changes by
 //! ⟨τ_n, v'_n − v_n⟩ = Σ_E c_E ∫_E (−τ_n) φ_m n·n_m ds ≥ 0 for τ_n ≤ 0, which is added.
+//! With friction only edges with one contact direction are lifted (n = n_m: v'_t = v_t, and
+//! the friction pairing is unchanged).
 
 use super::boundary::maximum;
 use crate::field::StressField;
+use crate::geometry::Shape;
 use crate::geometry::values::{sub_edge_point, sub_point};
 use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
-use crate::read::scene::BoundaryKind;
+use crate::read::scene::{BoundaryKind, ContactNormal};
 use crate::tolerance::{EDGE_DEGREE, LIFT_REFINE, LIFT_SAMPLES};
 
 /// The lifted displacement and what it costs.
@@ -39,8 +42,15 @@ pub struct Lift {
 }
 
 /// The lift of module doc for P2 meshes whose contact edges penetrate by more than `tol`
-/// between nodes; `None` when nothing is to be lifted.
-pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Option<Lift> {
+/// between nodes; `None` when nothing is to be lifted. With friction (`frictional`) only the
+/// edges along which the contact direction is constant are lifted.
+pub fn lift(
+    ctx: &Context,
+    v: &[[f64; 2]],
+    sigma: StressField,
+    tol: f64,
+    frictional: bool,
+) -> Option<Lift> {
     let mesh = ctx.mesh;
     if mesh.degree != 2 {
         return None;
@@ -89,6 +99,14 @@ pub fn lift(ctx: &Context, v: &[[f64; 2]], sigma: StressField, tol: f64) -> Opti
         };
         let lifted =
             |c: f64| move |s: f64| at(s).map_or(f64::NEG_INFINITY, |(pen, phi)| pen - c * phi);
+        // With friction the pairing ∫ 𝔉|τ_n||v_t| + τ_t v_t must not change: only where the
+        // contact direction is one along the edge (the obstacle's normal, or a straight edge)
+        // does the move along n_m leave v_t as it is.
+        let fixed_direction = spec.normal == ContactNormal::Obstacle || sh == Shape::Affine;
+        if frictional && !fixed_direction {
+            max_after = max_after.max(maximum(lifted(0.0)).0);
+            continue;
+        }
         let mut c: f64 = 0.0;
         for i in 1..LIFT_SAMPLES {
             if let Some((pen, phi)) = at(i as f64 / LIFT_SAMPLES as f64)
