@@ -219,11 +219,11 @@ struct Cell {
 }
 
 /// [`bound`] on the P2 elevation of a P1 triangle mesh: every cell one P2 triangle with
-/// straight mid-edge nodes (`halves::split` with one sub-square), on which v, τ (a nodal τ
-/// with the mid-edge values of its linear interpolant), the admissibility and the pairings `f` are those of the P1 mesh, and where [`lift::lift`] can
-/// move the mid-edge nodes of the contact edges whose linear trace crosses a convex obstacle
-/// between admissible vertices (design §6.2, "Between nodes"). None when the elevation cannot
-/// be built.
+/// straight mid-edge nodes (`halves::split` with one sub-square). On it v, τ (a nodal τ with
+/// the mid-edge values of its linear interpolant), the admissibility and the pairings `f` are
+/// those of the P1 mesh, and [`lift::lift`] can move the mid-edge nodes of the contact edges
+/// whose linear trace crosses a convex obstacle between admissible vertices (design §6.2,
+/// "Between nodes"). None when the elevation cannot be built.
 fn on_elevation(
     ctx: &Context,
     v: &[[f64; 2]],
