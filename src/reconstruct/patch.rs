@@ -54,7 +54,7 @@ use crate::quadrature::{line_rule_cached, triangle_rule_cached};
 use crate::read::scene::BoundaryKind;
 use crate::tolerance::{
     EDGE_DEGREE, EDGE_OPEN_SAMPLES, FLOW_PASS_DEFECT, FLOW_PASSES, KERNEL_ELIMINATION_CONDITION,
-    KERNEL_PIVOT_RELATIVE, LOAD_DEGREE, MIN_CONE_FRICTION, OPEN_GAP_RELATIVE,
+    KERNEL_PIVOT_RELATIVE, LOAD_DEFECT_FLOOR, LOAD_DEGREE, MIN_CONE_FRICTION, OPEN_GAP_RELATIVE,
     PATCH_DEFECT_RELATIVE, PATCH_DEPENDENT_ROW,
 };
 
@@ -307,10 +307,19 @@ pub fn reconstruct(
         .with_min_len(64)
         .map(|i| solve_one(i, &extra, true))
         .collect();
+    // Each closed patch's force defect relative to its loads, but to no less than
+    // LOAD_DEFECT_FLOOR × the largest patch's: where the loads themselves are at the solver's
+    // residual level the ratio is 1 whatever the solver did.
+    let largest = outs.iter().fold(0.0f64, |m, o| m.max(o.balance_scale));
     let load_defect = outs
         .iter()
         .filter(|o| !o.solved && o.cannot_take != [[0.0; 3]; 3])
-        .map(|o| relative_balance([o.balance[0], o.balance[1], 0.0], o.balance_scale))
+        .map(|o| {
+            relative_balance(
+                [o.balance[0], o.balance[1], 0.0],
+                o.balance_scale.max(LOAD_DEFECT_FLOOR * largest),
+            )
+        })
         .fold(0.0f64, f64::max);
     // Patches whose constraints are not met leave rigid-motion moments e_a: move them to the
     // patches that take them (flow.rs), and solve again; a pass can change active sets, so the
