@@ -668,6 +668,33 @@ fn float32_six_node_cells_are_all_symmetrised() {
     assert!(b.guaranteed, "{:?}", b.failed_hypotheses);
 }
 
+/// A fine reference's committed true errors (`reference/<family>/fine_errors.json`, computed
+/// without fosls) and the reference's own error bound.
+fn fine_reference(family: &str) -> (serde_json::Value, f64) {
+    let path = root().join(format!("reference/{family}/fine_errors.json"));
+    let fine: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let reference_error = fine["reference_error_bound"].as_f64().expect("a bound");
+    (fine, reference_error)
+}
+
+/// The true error of fixture `case` in a [`fine_reference`].
+fn true_error(fine: &serde_json::Value, case: &str) -> f64 {
+    fine["fixtures"][case]["energy_error"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{case}: no reference error"))
+}
+
+/// Bound `e` of `case` is above its true error plus the reference's own error, and within
+/// `limit` times the true error.
+fn assert_above_and_within(case: &str, e: f64, truth: f64, reference_error: f64, limit: f64) {
+    assert!(
+        e >= truth + reference_error && e <= limit * truth,
+        "{case}: bound {e}, true error {truth} (± {reference_error}), index {}",
+        e / truth
+    );
+}
+
 /// Hertz from NGSolve's penalty solver (the files penetrate the obstacle by ≈ 9e-6, so the bound
 /// adds the distance of the projection onto K_u) against the fine scikit-fem reference of
 /// `reference/hertz/fine_error.py` (its committed `fine_errors.json`, computed without fosls):
@@ -676,26 +703,16 @@ fn float32_six_node_cells_are_all_symmetrised() {
 /// P1 1.09).
 #[test]
 fn hertz_penalty_bounds_are_guaranteed_against_the_fine_reference() {
-    let fine: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(root().join("reference/hertz/fine_errors.json")).unwrap(),
-    )
-    .unwrap();
-    let reference_error = fine["reference_error_bound"].as_f64().expect("a bound");
+    let (fine, reference_error) = fine_reference("hertz");
     for case in ["hertz_ngsolve_p1", "hertz_ngsolve_p2"] {
-        let truth = fine["fixtures"][case]["energy_error"]
-            .as_f64()
-            .unwrap_or_else(|| panic!("{case}: no reference error"));
+        let truth = true_error(&fine, case);
         let file = root().join(format!("fixtures/{case}/solution.vtu"));
         let (code, r, err) = estimate(&file, &["--stress", "patch"]);
         assert!(code == 0 || code == 1, "{err}");
         let b = r.expect("a report").bound;
         assert!(b.guaranteed, "{case}: {:?}", b.failed_hypotheses);
         let e = b.energy_error.expect("a bound");
-        assert!(
-            e >= truth + reference_error && e <= 1.5 * truth,
-            "{case}: bound {e}, true error {truth} (± {reference_error}), index {}",
-            e / truth
-        );
+        assert_above_and_within(case, e, truth, reference_error, 1.5);
     }
 }
 
@@ -709,16 +726,10 @@ fn hertz_penalty_bounds_are_guaranteed_against_the_fine_reference() {
 /// within 1.5 times the true error (measured P1 1.13, P2 1.29).
 #[test]
 fn block_on_a_cylinder_bounds_are_guaranteed_against_the_fine_reference() {
-    let fine: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(root().join("reference/block/fine_errors.json")).unwrap(),
-    )
-    .unwrap();
-    let reference_error = fine["reference_error_bound"].as_f64().expect("a bound");
+    let (fine, reference_error) = fine_reference("block");
     for p in [1, 2] {
         let case = format!("block_cylinder_skfem_p{p}");
-        let truth = fine["fixtures"][&case]["energy_error"]
-            .as_f64()
-            .unwrap_or_else(|| panic!("{case}: no reference error"));
+        let truth = true_error(&fine, &case);
         let file = root().join(format!("fixtures/{case}/solution.vtu"));
         let (code, r, err) = estimate(&file, &[]);
         assert!(code == 0 || code == 1, "{err}");
@@ -745,11 +756,7 @@ fn block_on_a_cylinder_bounds_are_guaranteed_against_the_fine_reference() {
         let lift = b.terms.as_ref().expect("terms").projection;
         assert!(lift > 0.0, "{case}");
         let e = b.energy_error.expect("a bound");
-        assert!(
-            e >= truth + reference_error && e <= 1.5 * truth,
-            "{case}: bound {e}, true error {truth} (± {reference_error}), index {}",
-            e / truth
-        );
+        assert_above_and_within(&case, e, truth, reference_error, 1.5);
     }
 }
 
@@ -829,27 +836,17 @@ fn a_file_stress_that_is_not_equilibrated_leaves_the_bound_to_the_patch_stress()
 /// guaranteed. The Q1 cells are no parallelograms, so its split term is not zero.
 #[test]
 fn hertz_quadrilateral_bounds_are_guaranteed_against_the_fine_reference() {
-    let fine: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(root().join("reference/hertz/fine_errors.json")).unwrap(),
-    )
-    .unwrap();
-    let reference_error = fine["reference_error_bound"].as_f64().expect("a bound");
+    let (fine, reference_error) = fine_reference("hertz");
     for (family, index) in [("q1", 1.75), ("q2", 2.5), ("s2", 3.0)] {
         let case = format!("quad_hertz_skfem_{family}");
-        let truth = fine["fixtures"][case.as_str()]["energy_error"]
-            .as_f64()
-            .unwrap_or_else(|| panic!("{case}: no reference error"));
+        let truth = true_error(&fine, &case);
         let file = root().join(format!("fixtures/{case}/solution.vtu"));
         let (code, r, err) = estimate(&file, &[]);
         assert!(code == 0 || code == 1, "{family}: {err}");
         let b = r.expect("a report").bound;
         assert!(b.guaranteed, "{family}: {:?}", b.failed_hypotheses);
         let e = b.energy_error.expect("a bound");
-        assert!(
-            e >= truth + reference_error && e <= index * truth,
-            "{case}: bound {e}, true error {truth} (± {reference_error}), index {}",
-            e / truth
-        );
+        assert_above_and_within(&case, e, truth, reference_error, index);
         let t = b.terms.expect("terms");
         assert!(t.korn_max < 40.0, "{family}: K_T up to {}", t.korn_max);
         assert!(t.halves > 0.0, "{family}");

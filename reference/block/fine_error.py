@@ -62,37 +62,20 @@ def block_corners(hc, hb, hmax, grading, hcorner, hzone=None, hends=None):
     corners) plus RestrictH of size hcorner at the two top corners (+-1, 1), optionally of size hzone on
     ZONE (the region below the contact zone, where the Hertz-like stress field varies on the scale of the
     contact half width) and of size hends along the bottom around the contact zone ends ENDS."""
-    from netgen.occ import Pnt, Segment, Wire, Face, OCCGeometry
-    import netgen.meshing as nm
-    pts = [Pnt(-1.0, 0.0, 0.0), Pnt(1.0, 0.0, 0.0), Pnt(1.0, 1.0, 0.0), Pnt(-1.0, 1.0, 0.0)]
-    face = Face(Wire([Segment(pts[i], pts[(i + 1) % 4]) for i in range(4)]))
-    geo = OCCGeometry(face, dim=2)
-    mp = nm.MeshingParameters(maxh=hmax, grading=grading)
-    for xb in np.linspace(-1.0, 1.0, int(np.ceil(2.0 / hb)) + 1):
-        mp.RestrictH(x=float(xb), y=0.0, z=0.0, h=hb)
-    for xc in (-1.0, 1.0):
-        mp.RestrictH(x=xc, y=0.0, z=0.0, h=hc)
-        if hcorner:
-            mp.RestrictH(x=xc, y=1.0, z=0.0, h=hcorner)
-    if hzone:
-        for xz in np.arange(ZONE[0][0], ZONE[0][1] + 0.5 * hzone, hzone):
-            for yz in np.arange(ZONE[1][0], ZONE[1][1] + 0.5 * hzone, hzone):
-                mp.RestrictH(x=float(xz), y=float(yz), z=0.0, h=hzone)
-    if hends:
-        for xa in np.arange(ENDS[0], ENDS[1] + 0.5 * hends, hends):
-            for sg in (-1.0, 1.0):
-                mp.RestrictH(x=float(sg * xa), y=0.0, z=0.0, h=hends)
-    ngm = geo.GenerateMesh(mp=mp)
+    def refine(mp):
+        for xc in (-1.0, 1.0):
+            if hcorner:
+                mp.RestrictH(x=xc, y=1.0, z=0.0, h=hcorner)
+        if hzone:
+            for xz in np.arange(ZONE[0][0], ZONE[0][1] + 0.5 * hzone, hzone):
+                for yz in np.arange(ZONE[1][0], ZONE[1][1] + 0.5 * hzone, hzone):
+                    mp.RestrictH(x=float(xz), y=float(yz), z=0.0, h=hzone)
+        if hends:
+            for xa in np.arange(ENDS[0], ENDS[1] + 0.5 * hends, hends):
+                for sg in (-1.0, 1.0):
+                    mp.RestrictH(x=float(sg * xa), y=0.0, z=0.0, h=hends)
 
-    def classify(a, b):
-        if a[1] == 0.0 and b[1] == 0.0:
-            return G.TAG_CONTACT
-        if a[1] == 1.0 and b[1] == 1.0:
-            return G.TAG_TOP
-        return G.TAG_FREE
-
-    p, t, be, btag = G._from_netgen(ngm, classify)
-    return G.TriMesh(p, t, be, btag, ngm, dict(kind="block", hc=hc, hb=hb, hmax=hmax, grading=grading, hcorner=hcorner))
+    return G.block(hc, hb, hmax, grading, refine=refine)
 
 
 def solve_level(k, intorder, subdiv, hcorner, grading, hzone=None, hends=None):

@@ -76,9 +76,10 @@ def half_disc(hc, xz=0.12, hmax=0.1, grading=0.3):
     return TriMesh(p, t, be, btag, ngm, dict(kind="half_disc", hc=hc, xz=xz, hmax=hmax, grading=grading))
 
 
-def block(hc, hb=0.02, hmax=0.1, grading=0.3):
+def block(hc, hb=0.02, hmax=0.1, grading=0.3, refine=None):
     """Rectangle [-1,1]x[0,1] (netgen OCC): edge size hb along the bottom, refined to hc at the two bottom
-    corners (where the contact zone ends).  Names/tags: bottom = "contact"/1, top = "top"/2, sides = "free"/3."""
+    corners (where the contact zone ends).  Names/tags: bottom = "contact"/1, top = "top"/2, sides = "free"/3.
+    refine: optional callable of the netgen MeshingParameters adding further RestrictH calls before meshing."""
     from netgen.occ import Pnt, Segment, Wire, Face, OCCGeometry
     import netgen.meshing as nm
     pts = [Pnt(-1.0, 0.0, 0.0), Pnt(1.0, 0.0, 0.0), Pnt(1.0, 1.0, 0.0), Pnt(-1.0, 1.0, 0.0)]
@@ -92,6 +93,8 @@ def block(hc, hb=0.02, hmax=0.1, grading=0.3):
         mp.RestrictH(x=float(xb), y=0.0, z=0.0, h=hb)
     for xc in (-1.0, 1.0):
         mp.RestrictH(x=xc, y=0.0, z=0.0, h=hc)
+    if refine is not None:
+        refine(mp)
     ngm = geo.GenerateMesh(mp=mp)
 
     def classify(a, b):
