@@ -484,7 +484,7 @@ pub fn split(
 /// taken well above that: on the Hertz Q1 file (cells down to det J = 4.7e-6) ½|||u_h|||² was
 /// 2.9e-7 off the reference's with degree 12, 7e-10 with degree 20.
 const DISTANCE_DEGREE_AFFINE: usize = 6;
-const DISTANCE_DEGREE_OTHER: usize = 20;
+pub(crate) const DISTANCE_DEGREE_OTHER: usize = 20;
 
 /// |||ũ_h − u_h||| = (Σ_T (Cε(ũ_h − u_h), ε(ũ_h − u_h))_T)^½ over the split of the
 /// quadrilaterals (zero on triangles, where ũ_h is u_h), with u_h at each point through the
@@ -510,18 +510,12 @@ fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<(f64,
         let st = el.stress(eps);
         (0..4).map(|i| st[i] * eps[i]).sum::<f64>()
     };
+    let shift = Shift::new(mesh, halves, u);
     (0..sub.len())
         .into_par_iter()
         .with_min_len(256)
         .map(|s| {
-            let t = halves.parent[s] as usize;
-            let fam = mesh.family[t];
-            let x = mesh.coords(t);
-            let n = fam.nodes();
-            let sh = mesh.shape[t];
-            let xs = sub.coords(s);
-            let [r0, r1, r2] = halves.reference[s];
-            let deg = if sh == Shape::Affine && sub.shape[s] == Shape::Affine {
+            let deg = if shift.polynomial(s) {
                 DISTANCE_DEGREE_AFFINE
             } else {
                 DISTANCE_DEGREE_OTHER
@@ -529,32 +523,8 @@ fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<(f64,
             let rule = triangle_rule_cached(deg);
             let (mut d2, mut energy) = (0.0, 0.0);
             for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
-                let half = sub_point(Family::Tri6, &xs[..6], sub.shape[s], 0, xi);
-                let gh = half.gradient_at(sub.nodes(s), &halves.u);
-                let w = wq * half.jac.det;
-                // On a triangle parent ũ_h is u_h (module doc).
-                if !fam.is_quad() {
-                    energy += 0.5 * w * density(gh);
-                    continue;
-                }
-                let guess = std::array::from_fn(|c| {
-                    r0[c] + xi[0] * (r1[c] - r0[c]) + xi[1] * (r2[c] - r0[c])
-                });
-                let xp = if sh == Shape::Affine {
-                    guess
-                } else {
-                    invert(fam, &x[..n], half.x, guess)
-                };
-                let (_, g) = fam.shape(xp);
-                let jp = jacobian(&x[..n], n, &g);
-                let mut gp = [[0.0; 2]; 2];
-                for (i, &p) in mesh.nodes(t).iter().enumerate() {
-                    let gi = jp.physical_gradient(g[i]);
-                    for a in 0..2 {
-                        gp[a][0] += u[p as usize][a] * gi[0];
-                        gp[a][1] += u[p as usize][a] * gi[1];
-                    }
-                }
+                let (w, gh, gp) = shift.gradients(s, xi);
+                let w = wq * w;
                 let d = std::array::from_fn(|a| std::array::from_fn(|b| gh[a][b] - gp[a][b]));
                 d2 += w * density(d);
                 energy += 0.5 * w * density(gp);
@@ -562,6 +532,73 @@ fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<(f64,
             (d2, energy)
         })
         .collect()
+}
+
+/// u_h − ũ_h on the triangle split, for the bound taken with the file's u_h itself (design
+/// §6.3, "u_h itself"): the stress equilibrated on the split is admissible for the parent
+/// problem whatever displacement it is paired with, and on every parent edge ũ_h has u_h's
+/// trace, so the Prager–Synge term can pair it with Cε(u_h) = Cε(ũ_h) + Cε(u_h − ũ_h) and no
+/// distance is added. u_h at a split point is evaluated through the inverse map of its parent.
+pub struct Shift<'a> {
+    mesh: &'a Mesh,
+    halves: &'a Halves,
+    u: &'a [[f64; 2]],
+}
+
+impl<'a> Shift<'a> {
+    /// The shift of `u` (nodal values on `mesh`, the parent) on `halves`, its split.
+    pub fn new(mesh: &'a Mesh, halves: &'a Halves, u: &'a [[f64; 2]]) -> Shift<'a> {
+        Shift { mesh, halves, u }
+    }
+
+    /// Whether u_h is a polynomial on split cell `s` (a triangle parent, or a parallelogram
+    /// under a straight sub-triangle): then its integrals with polynomial stresses are exact
+    /// with the polynomial rules; elsewhere u_h is rational in the split's coordinates.
+    pub fn polynomial(&self, s: usize) -> bool {
+        let t = self.halves.parent[s] as usize;
+        self.mesh.shape[t] == Shape::Affine && self.halves.data.mesh.shape[s] == Shape::Affine
+    }
+
+    /// ∇(u_h − ũ_h) at reference point `xi` of split cell `s`.
+    pub fn gradient(&self, s: usize, xi: [f64; 2]) -> [[f64; 2]; 2] {
+        let (_, gh, gp) = self.gradients(s, xi);
+        std::array::from_fn(|a| std::array::from_fn(|b| gp[a][b] - gh[a][b]))
+    }
+
+    /// (det J of the split cell, ∇ũ_h, ∇u_h) at reference point `xi` of split cell `s`; on a
+    /// triangle parent ũ_h is u_h (module doc).
+    fn gradients(&self, s: usize, xi: [f64; 2]) -> (f64, [[f64; 2]; 2], [[f64; 2]; 2]) {
+        let (mesh, sub) = (self.mesh, &self.halves.data.mesh);
+        let t = self.halves.parent[s] as usize;
+        let fam = mesh.family[t];
+        let xs = sub.coords(s);
+        let half = sub_point(Family::Tri6, &xs[..6], sub.shape[s], 0, xi);
+        let gh = half.gradient_at(sub.nodes(s), &self.halves.u);
+        if !fam.is_quad() {
+            return (half.jac.det, gh, gh);
+        }
+        let x = mesh.coords(t);
+        let n = fam.nodes();
+        let [r0, r1, r2] = self.halves.reference[s];
+        let guess =
+            std::array::from_fn(|c| r0[c] + xi[0] * (r1[c] - r0[c]) + xi[1] * (r2[c] - r0[c]));
+        let xp = if mesh.shape[t] == Shape::Affine {
+            guess
+        } else {
+            invert(fam, &x[..n], half.x, guess)
+        };
+        let (_, g) = fam.shape(xp);
+        let jp = jacobian(&x[..n], n, &g);
+        let mut gp = [[0.0; 2]; 2];
+        for (i, &p) in mesh.nodes(t).iter().enumerate() {
+            let gi = jp.physical_gradient(g[i]);
+            for (ga, ua) in gp.iter_mut().zip(self.u[p as usize]) {
+                ga[0] += ua * gi[0];
+                ga[1] += ua * gi[1];
+            }
+        }
+        (half.jac.det, gh, gp)
+    }
 }
 
 #[cfg(test)]

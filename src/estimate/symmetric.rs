@@ -174,7 +174,6 @@ impl Split {
 
 /// Curl of the unknown (node, row r) with physical gradient `g` of its Lagrange function, as
 /// a row-major tensor [xx, xy, yx, yy].
-#[cfg(test)]
 #[inline]
 fn curl(r: usize, g: [f64; 2]) -> [f64; 4] {
     if r == 0 {
@@ -634,6 +633,90 @@ pub fn correct_affine(
     }
 }
 
+/// ‖C^{1/2}ε(v) − C^{−1/2} sym(τ + Curl φ)‖²_T for the correction φ = `phi` that
+/// [`correct_affine`] of degree `m` gave on the straight triangle `verts`, integrated with the
+/// rule of degree `degree` on each sub-triangle of the split. For a field whose τ or Cε(v) is
+/// not a polynomial of degree ≤ m − 1 (u_h through a parent quadrilateral that is not a
+/// parallelogram, design §6.3 "u_h itself"), where `correct_affine`'s own rule is exact for
+/// Curl φ but not for the rest: φ stays the minimiser it found (any φ with div φ = as τ keeps
+/// τ + Curl φ symmetric and equilibrated), and its term is integrated at the degree of the
+/// rational cells' other integrals. `field(ξ)` gives τ and Cε(v) at the reference point ξ.
+pub fn corrected_ps2(
+    verts: [[f64; 2]; 3],
+    m: usize,
+    el: &Elastic,
+    phi: &[f64],
+    degree: usize,
+    field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]),
+) -> f64 {
+    let re = split_rule(m, degree);
+    let jm = [
+        [verts[1][0] - verts[0][0], verts[2][0] - verts[0][0]],
+        [verts[1][1] - verts[0][1], verts[2][1] - verts[0][1]],
+    ];
+    let det = jm[0][0] * jm[1][1] - jm[0][1] * jm[1][0];
+    let mut ps2 = 0.0;
+    for ((xi, wr), grads) in re.points.iter().zip(&re.grads) {
+        let mut cp = [0.0; 4];
+        for &(a, gr) in grads {
+            // ∇N = J⁻ᵀ ∇̂N̂ (the physical split is the affine image of the reference one).
+            let g = [
+                (jm[1][1] * gr[0] - jm[1][0] * gr[1]) / det,
+                (jm[0][0] * gr[1] - jm[0][1] * gr[0]) / det,
+            ];
+            for r in 0..2 {
+                let c = curl(r, g);
+                for (k, ck) in cp.iter_mut().enumerate() {
+                    *ck += phi[2 * a + r] * c[k];
+                }
+            }
+        }
+        let (tau, ce) = field(*xi);
+        let t: [f64; 4] = std::array::from_fn(|k| tau[k] + cp[k]);
+        ps2 += wr * det * ps_density(el, t, ce);
+    }
+    ps2
+}
+
+/// The points of the rule of degree `degree` on each sub-triangle of the reference split of
+/// degree m, for [`corrected_ps2`]: parent ξ and reference weight (Σ = ½), and per point ∇̂ of
+/// its sub-triangle's free Lagrange functions (node, gradient).
+struct SplitRule {
+    points: Vec<([f64; 2], f64)>,
+    grads: Vec<Vec<(usize, [f64; 2])>>,
+}
+
+/// The cached [`SplitRule`] of (m, degree).
+fn split_rule(m: usize, degree: usize) -> &'static SplitRule {
+    type Cache = std::sync::Mutex<std::collections::HashMap<(usize, usize), &'static SplitRule>>;
+    static CACHE: OnceLock<Cache> = OnceLock::new();
+    let mut cache = CACHE
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    cache.entry((m, degree)).or_insert_with(|| {
+        let split = Split::new([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], m);
+        let rule = triangle_rule_cached(degree);
+        let (mut vals, mut all) = (Vec::new(), Vec::new());
+        let (mut points, mut grads) = (Vec::new(), Vec::new());
+        for i in 0..3 {
+            for (&xi, &wq) in rule.points.iter().zip(&rule.weights) {
+                let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+                split.basis(i, l, &mut vals, &mut all);
+                grads.push(
+                    split.node[i]
+                        .iter()
+                        .zip(&all)
+                        .filter_map(|(na, &g)| na.map(|a| (a, g)))
+                        .collect(),
+                );
+                points.push((split.parent_xi(i, l), wq * split.det[i]));
+            }
+        }
+        Box::leak(Box::new(SplitRule { points, grads }))
+    })
+}
+
 /// The correction on a curved (isoparametric P2) triangle with nodes `nodes` (VTK order,
 /// counter-clockwise) and polynomial degree `m` ≥ 2, through the contravariant Piola map
 /// φ = J φ̂ / det J of a φ̂ ∈ V_m(T̂) on the Alfeld split of the REFERENCE triangle.
@@ -951,6 +1034,75 @@ mod tests {
             "{} → {}",
             c.asym_before,
             c.asym_after
+        );
+    }
+
+    /// `corrected_ps2` re-integrates the term of φ found by `correct_affine`: for polynomial
+    /// fields it is `correct_affine`'s own ps2 (φ read back in the same representation), at the
+    /// exact degree and far above it; for a field off the polynomials (a smooth rational Cε)
+    /// the high-degree value agrees with a still higher one and differs from the exact-degree
+    /// rule's, which is why the bound calls it on rational cells.
+    #[test]
+    fn the_corrected_term_is_integrated_again_from_phi() {
+        let v = tri();
+        // A mean-free quadratic asymmetry a (the correction needs ∫_T as τ = 0).
+        let (xc, yc) = (
+            (v[0][0] + v[1][0] + v[2][0]) / 3.0,
+            (v[0][1] + v[1][1] + v[2][1]) / 3.0,
+        );
+        let rule = triangle_rule_cached(4);
+        let mean: f64 = (rule.points.iter().zip(&rule.weights))
+            .map(|(&xi, &w)| {
+                let p = x_of(xi);
+                w * 2.0 * (p[0] - xc) * (p[1] - yc)
+            })
+            .sum();
+        let poly = move |xi: [f64; 2]| {
+            let p = x_of(xi);
+            let h = 0.5 * ((p[0] - xc) * (p[1] - yc) - mean);
+            let tau = [
+                1.0 + p[0] * p[1],
+                0.3 * p[1] + h,
+                0.3 * p[1] - h,
+                -0.5 + p[1],
+            ];
+            (tau, [0.7 + p[1], 0.1 * p[0], 0.1 * p[0], 0.2 * p[1] * p[1]])
+        };
+        let m = 4;
+        let c = both(v, m, poly);
+        assert!(c.asym_before > 1e-3 && c.ps2 > 1e-2, "{c:?}");
+        for degree in [affine_rule_degree(m), 20] {
+            let again = corrected_ps2(v, m, &EL, &c.phi, degree, poly);
+            assert!(
+                (again - c.ps2).abs() <= 1e-12 * c.ps2,
+                "degree {degree}: {again} against {}",
+                c.ps2
+            );
+        }
+        let rational = |xi: [f64; 2]| {
+            let (tau, ce) = poly(xi);
+            let p = x_of(xi);
+            let r = 1.0 / (2.0 + p[0] - 0.5 * p[1]);
+            (tau, [ce[0] + r, ce[1], ce[2], ce[3] - r * r])
+        };
+        let c = correct_affine(v, m, &EL, |_, xi| rational(xi));
+        let (low, high, higher) = (
+            corrected_ps2(v, m, &EL, &c.phi, affine_rule_degree(m), rational),
+            corrected_ps2(v, m, &EL, &c.phi, 20, rational),
+            corrected_ps2(v, m, &EL, &c.phi, 30, rational),
+        );
+        assert!(
+            (low - c.ps2).abs() <= 1e-12 * c.ps2,
+            "{low} against {}",
+            c.ps2
+        );
+        assert!(
+            (high - higher).abs() <= 1e-13 * higher,
+            "{high} against {higher}"
+        );
+        assert!(
+            (low - higher).abs() > 1e-12 * higher,
+            "{low} against {higher}"
         );
     }
 
