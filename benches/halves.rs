@@ -3,6 +3,7 @@
 //! ```text
 //! cargo bench --bench halves                       # 10k and 100k cells; Q1 and Q2; 2 threads
 //! cargo bench --bench halves -- 1000000 --family 1 --threads 1,2
+//! cargo bench --bench halves -- 10000 100000 --family 2 --distort   # no parallelograms
 //! ```
 //!
 //! Builds n × 2n squares of [0, 2] × [0, 1] (Q1 or biquadratic Q2, n = round(√(cells/2))) with
@@ -36,11 +37,48 @@ use common::{grid, list, scene, status_mib, with_displacement};
 
 const CASE_ENV: &str = "FOSLS_HALVES_CASE";
 
-/// 2n × n squares of [0, 2] × [0, 1]: Q1 (VTK 9) or Q2 (VTK 28) cells.
-fn rectangle(cells: usize, degree: usize) -> VtuFile {
+/// 2n × n squares of [0, 2] × [0, 1]: Q1 (VTK 9) or Q2 (VTK 28) cells. With `distort` the
+/// interior vertices move by up to 0.2 h along a smooth field and the other Q2 nodes sit at the
+/// straight midpoints and the vertex mean: straight-edged cells that are no parallelograms, on
+/// which u_h is rational in x (the bound's costly case, design §6.3 "u_h itself").
+fn rectangle(cells: usize, degree: usize, distort: bool) -> VtuFile {
     let n = ((cells / 2) as f64).sqrt().round().max(1.0) as usize;
     let (mx, my) = (degree * 2 * n + 1, degree * n + 1);
-    let pts = grid(mx, my);
+    let mut pts = grid(mx, my);
+    if distort {
+        let h = 1.0 / n as f64;
+        let at = |i: usize, j: usize| j * mx + i;
+        for j in (degree..my - 1).step_by(degree) {
+            for i in (degree..mx - 1).step_by(degree) {
+                let p = pts[at(i, j)];
+                pts[at(i, j)][0] += 0.2 * h * (7.1 * p[0] + 3.3 * p[1]).sin();
+                pts[at(i, j)][1] += 0.2 * h * (5.3 * p[0] - 2.9 * p[1]).cos();
+            }
+        }
+        if degree == 2 {
+            for j in 0..my {
+                for i in 0..mx {
+                    let (oi, oj) = (i % 2 == 1, j % 2 == 1);
+                    let corners: Vec<usize> = match (oi, oj) {
+                        (false, false) => continue,
+                        (true, false) => vec![at(i - 1, j), at(i + 1, j)],
+                        (false, true) => vec![at(i, j - 1), at(i, j + 1)],
+                        (true, true) => vec![
+                            at(i - 1, j - 1),
+                            at(i + 1, j - 1),
+                            at(i + 1, j + 1),
+                            at(i - 1, j + 1),
+                        ],
+                    };
+                    let k = corners.len() as f64;
+                    let mean = corners.iter().fold([0.0; 2], |m, &c| {
+                        [m[0] + pts[c][0] / k, m[1] + pts[c][1] / k]
+                    });
+                    pts[at(i, j)] = [mean[0], mean[1], 0.0];
+                }
+            }
+        }
+    }
     let id = |i: usize, j: usize| (j * mx + i) as u32;
     let mut c = Vec::with_capacity(2 * n * n);
     for j in 0..n {
@@ -75,12 +113,13 @@ fn rectangle(cells: usize, degree: usize) -> VtuFile {
 fn child(spec: &str) {
     let parts: Vec<usize> = spec.split(',').map(|p| p.parse().unwrap()).collect();
     let (cells, degree, threads) = (parts[0], parts[1], parts[2]);
+    let distort = parts.get(3) == Some(&1);
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build_global()
         .unwrap();
     let scene = scene();
-    let file = rectangle(cells, degree);
+    let file = rectangle(cells, degree, distort);
     let t0 = Instant::now();
     let data = mesh::build(file).unwrap();
     let topo = topology::build(&data).unwrap();
@@ -114,7 +153,7 @@ fn child(spec: &str) {
     let t4 = Instant::now();
     let s = |a: Instant, z: Instant| (z - a).as_secs_f64();
     let out = json!({
-        "cells": data.mesh.cells.len(), "degree": degree, "threads": threads,
+        "cells": data.mesh.cells.len(), "degree": degree, "threads": threads, "distort": distort,
         "setup": s(t0, t1), "global": s(t1, t2), "F_time": s(t2, t3), "halves": s(t3, t4),
         "whole": s(t0, t4), "peak_mib": status_mib("VmHWM:"),
         "eta": est.eta, "energy_error": b.energy_error, "relative": b.relative,
@@ -132,7 +171,10 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut sizes = Vec::new();
     for (k, a) in args.iter().enumerate() {
-        if k > 0 && args[k - 1].starts_with("--") && args[k - 1] != "--bench" {
+        if k > 0
+            && args[k - 1].starts_with("--")
+            && !["--bench", "--distort"].contains(&&*args[k - 1])
+        {
             continue;
         }
         if let Ok(n) = a.parse::<usize>() {
@@ -144,12 +186,13 @@ fn main() {
     }
     let families = list(&args, "--family", &[1, 2]);
     let threads = list(&args, "--threads", &[2]);
+    let distort = args.iter().any(|a| a == "--distort");
     let exe = std::env::current_exe().unwrap();
     let mut rows: Vec<Value> = Vec::new();
     for &n in &sizes {
         for &d in &families {
             for &t in &threads {
-                let spec = format!("{n},{d},{t}");
+                let spec = format!("{n},{d},{t},{}", u8::from(distort));
                 eprintln!("case {spec} …");
                 let out = Command::new(&exe).env(CASE_ENV, &spec).output().unwrap();
                 if !out.status.success() {

@@ -196,7 +196,9 @@ pub const INVERSE_MAP_STEP: f64 = 2e-15;
 /// The diagonal node of a quadrilateral's triangle halves (`estimate::halves`) must be the
 /// image of the inverse map's point to this fraction of the cell's diameter: converged Newton
 /// steps reach round-off (1e-15), so a larger miss means the chord midpoint lies outside the
-/// cell (a non-convex quadrilateral), where u_h is not defined.
+/// cell (a non-convex quadrilateral), where u_h is not defined. A cell taken for a
+/// parallelogram is mapped affinely and may miss by up to [`CURVED_RELATIVE`] instead (a 100k
+/// smoothly distorted Q2 mesh was refused at 1.5e-9).
 pub const HALVES_DIAGONAL_MISS_RELATIVE: f64 = 1e-9;
 
 /// A quadrilateral's triangle halves (`estimate::halves`) take the diagonal from vertex 1 to 3

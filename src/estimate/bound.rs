@@ -33,7 +33,7 @@ use super::{bubble, data, lift, subcell, symmetric};
 use crate::element::rt::MAX_RT_DOFS;
 use crate::field::{RtStress, StressField};
 use crate::geometry::Shape;
-use crate::geometry::values::{TriangleTable, rule_degree, sub_point};
+use crate::geometry::values::{SubPoint, TriangleTable, rule_degree, sub_point};
 use crate::problem::Context;
 use crate::quadrature::{TriangleRule, triangle_rule_cached};
 use crate::tolerance::{
@@ -400,14 +400,26 @@ pub fn bound_with(
     };
     // The bases at the split points of the symmetric correction, per degree m it may use, and
     // at the points of the affine cells' rule (`BasisTable`), per triangle family present.
-    let (split_tables, rule_tables) = match sigma {
+    // With a shift: the correction's degree on rational cells (k + 3), and the points at which
+    // its term is integrated again (`symmetric::corrected_ps2`).
+    let (split_tables, rule_tables, check_tables) = match sigma {
         StressField::Rt(rt) => {
             let k = rt.order.k();
             let mut ms = vec![k + 2];
             if !f_poly && (k + 2) < bubble::Bubble::DEGREE + 1 {
                 ms.push(bubble::Bubble::DEGREE + 1);
             }
+            if shift.is_some() {
+                ms.push(k + 3);
+            }
             let split = BasisTable::build(mesh, rt.order, &ms, symmetric::affine_points);
+            let check = if shift.is_some() {
+                BasisTable::build(mesh, rt.order, &[k + 3], |m| {
+                    symmetric::corrected_points(m, super::halves::DISTANCE_DEGREE_OTHER)
+                })
+            } else {
+                Vec::new()
+            };
             let rule = if f_poly || shift.is_some() {
                 let mut degrees: Vec<usize> = if f_poly {
                     [1, 2]
@@ -430,9 +442,9 @@ pub fn bound_with(
             } else {
                 Vec::new()
             };
-            (split, rule)
+            (split, rule, check)
         }
-        StressField::Nodal(_) => (Vec::new(), Vec::new()),
+        StressField::Nodal(_) => (Vec::new(), Vec::new(), Vec::new()),
     };
     // (sigma_scale: the round-off floor of the moment checks, the stress scale times the
     // cell's area; a zero divergence or asymmetry has nothing else to be measured against.)
@@ -470,9 +482,9 @@ pub fn bound_with(
                 korn,
                 ..Default::default()
             };
-            let shifted = |g: [[f64; 2]; 2], xi: [f64; 2]| match shift {
+            let shifted = |g: [[f64; 2]; 2], sp: &SubPoint| match shift {
                 Some(sf) => {
-                    let d = sf.gradient(t, xi);
+                    let d = sf.gradient(t, sp);
                     std::array::from_fn(|a| std::array::from_fn(|b| g[a][b] + d[a][b]))
                 }
                 None => g,
@@ -499,7 +511,7 @@ pub fn bound_with(
                     None => sub_point(fam, &x[..fam.nodes()], sh, 0, xi),
                 };
                 let w = wq * sp.jac.det;
-                let gu = shifted(sp.gradient_at(nodes, v), xi);
+                let gu = shifted(sp.gradient_at(nodes, v), &sp);
                 let (s, d) = match sigma {
                     StressField::Nodal(sv) => {
                         let (mut sn, mut dn) = ([0.0; 4], [0.0; 2]);
@@ -564,7 +576,7 @@ pub fn bound_with(
             // The bubble's data at a reference point of the cell (RT stress, straight cell).
             let point = |rt: &RtStress, xi: [f64; 2], wq: f64| {
                 let sp = sub_point(fam, &x[..fam.nodes()], sh, 0, xi);
-                let gu = shifted(sp.gradient_at(nodes, v), xi);
+                let gu = shifted(sp.gradient_at(nodes, v), &sp);
                 let (s, d) = rt.at(rt.first[t] as usize, &sp.jac, xi);
                 let sym = 0.5 * (gu[0][1] + gu[1][0]);
                 let ce = el.stress([gu[0][0], sym, sym, gu[1][1]]);
@@ -678,7 +690,7 @@ pub fn bound_with(
                         let d = b.value([1.0 - xi[0] - xi[1], xi[0], xi[1]]);
                         s = std::array::from_fn(|k| s[k] + d[k]);
                     }
-                    let gu = shifted(sp.gradient_at(nodes, v), sp.xi);
+                    let gu = shifted(sp.gradient_at(nodes, v), sp);
                     let sym = 0.5 * (gu[0][1] + gu[1][0]);
                     (s, el.stress([gu[0][0], sym, sym, gu[1][1]]))
                 };
@@ -725,11 +737,21 @@ pub fn bound_with(
                     // Cε(u_h): the corrected stress's term at the degree of the cell loop (the
                     // Hertz Q2 file: up to 1 % per cell at 2m − 2; degree 20 and 30 agree to
                     // 1.5e-11 in the bound).
-                    c.ps2 = if rational && affine {
-                        symmetric::corrected_ps2(verts, m, &el, &fix.phi, deg, field)
-                    } else {
-                        fix.ps2
-                    };
+                    c.ps2 =
+                        if rational && affine {
+                            let table = BasisTable::find(&check_tables, m, fam);
+                            symmetric::corrected_ps2(verts, m, &el, &fix.phi, deg, |p, xi| {
+                                match table {
+                                    Some(st) => {
+                                        let sp = st.geometry.point(&x[..fam.nodes()], p);
+                                        at(&sp, rt.at_reference(first, &sp.jac, &st.rt[p]).0)
+                                    }
+                                    None => field(xi),
+                                }
+                            })
+                        } else {
+                            fix.ps2
+                        };
                     c.asym = 0.0;
                     c.symmetrised = true;
                 }

@@ -31,7 +31,7 @@
 
 use std::path::Path;
 
-use crate::geometry::values::{invert, jacobian, sub_point};
+use crate::geometry::values::{SubPoint, invert, jacobian, sub_point};
 use crate::geometry::{Family, MAX_NODES, Shape};
 use crate::mesh::{Dataset, Mesh, MeshReport, NONE};
 use crate::problem::{BoundaryEdge, Context};
@@ -223,8 +223,15 @@ pub fn split(
             let miss = (back[0] - target[0]).abs() + (back[1] - target[1]).abs();
             // The target, a mean of two coordinates, is known to ε|x|: a mesh far from
             // the origin (|x| = 3e4, cells of 1e-2) missed by 9e-12 after convergence.
+            // A cell taken for a parallelogram misses one by up to CURVED_RELATIVE of its
+            // size (mesh.rs), and its affine map is used everywhere else: so here too.
             let scale = crate::geometry::diameter(fam, &x[..n]);
-            let level = crate::tolerance::HALVES_DIAGONAL_MISS_RELATIVE * scale
+            let relative = if affine {
+                crate::tolerance::CURVED_RELATIVE
+            } else {
+                crate::tolerance::HALVES_DIAGONAL_MISS_RELATIVE
+            };
+            let level = relative * scale
                 + crate::tolerance::COORDINATE_ROUNDOFF * (target[0].abs() + target[1].abs());
             if miss.is_nan() || miss > level {
                 return Err(format!(
@@ -559,9 +566,14 @@ impl<'a> Shift<'a> {
         self.mesh.shape[t] == Shape::Affine && self.halves.data.mesh.shape[s] == Shape::Affine
     }
 
-    /// ∇(u_h − ũ_h) at reference point `xi` of split cell `s`.
-    pub fn gradient(&self, s: usize, xi: [f64; 2]) -> [[f64; 2]; 2] {
-        let (_, gh, gp) = self.gradients(s, xi);
+    /// ∇(u_h − ũ_h) at `sp`, a point of split cell `s` (its own map's point).
+    pub fn gradient(&self, s: usize, sp: &SubPoint) -> [[f64; 2]; 2] {
+        if !self.mesh.family[self.halves.parent[s] as usize].is_quad() {
+            // ũ_h is u_h on a triangle parent (module doc).
+            return [[0.0; 2]; 2];
+        }
+        let gh = sp.gradient_at(self.halves.data.mesh.nodes(s), &self.halves.u);
+        let gp = self.parent_gradient(s, sp.xi, sp.x);
         std::array::from_fn(|a| std::array::from_fn(|b| gp[a][b] - gh[a][b]))
     }
 
@@ -577,6 +589,15 @@ impl<'a> Shift<'a> {
         if !fam.is_quad() {
             return (half.jac.det, gh, gh);
         }
+        (half.jac.det, gh, self.parent_gradient(s, xi, half.x))
+    }
+
+    /// ∇u_h at the point `target` of split cell `s`, `xi` its reference point there, through
+    /// the inverse map of the parent quadrilateral.
+    fn parent_gradient(&self, s: usize, xi: [f64; 2], target: [f64; 2]) -> [[f64; 2]; 2] {
+        let mesh = self.mesh;
+        let t = self.halves.parent[s] as usize;
+        let fam = mesh.family[t];
         let x = mesh.coords(t);
         let n = fam.nodes();
         let [r0, r1, r2] = self.halves.reference[s];
@@ -585,7 +606,7 @@ impl<'a> Shift<'a> {
         let xp = if mesh.shape[t] == Shape::Affine {
             guess
         } else {
-            invert(fam, &x[..n], half.x, guess)
+            invert(fam, &x[..n], target, guess)
         };
         let (_, g) = fam.shape(xp);
         let jp = jacobian(&x[..n], n, &g);
@@ -597,7 +618,7 @@ impl<'a> Shift<'a> {
                 ga[1] += ua * gi[1];
             }
         }
-        (half.jac.det, gh, gp)
+        gp
     }
 }
 

@@ -640,14 +640,15 @@ pub fn correct_affine(
 /// parallelogram, design §6.3 "u_h itself"), where `correct_affine`'s own rule is exact for
 /// Curl φ but not for the rest: φ stays the minimiser it found (any φ with div φ = as τ keeps
 /// τ + Curl φ symmetric and equilibrated), and its term is integrated at the degree of the
-/// rational cells' other integrals. `field(ξ)` gives τ and Cε(v) at the reference point ξ.
+/// rational cells' other integrals. `field(p, ξ)` gives τ and Cε(v) at the reference point ξ =
+/// [`corrected_points`]`(m, degree)[p]`.
 pub fn corrected_ps2(
     verts: [[f64; 2]; 3],
     m: usize,
     el: &Elastic,
     phi: &[f64],
     degree: usize,
-    field: impl Fn([f64; 2]) -> ([f64; 4], [f64; 4]),
+    field: impl Fn(usize, [f64; 2]) -> ([f64; 4], [f64; 4]),
 ) -> f64 {
     let re = split_rule(m, degree);
     let jm = [
@@ -656,7 +657,7 @@ pub fn corrected_ps2(
     ];
     let det = jm[0][0] * jm[1][1] - jm[0][1] * jm[1][0];
     let mut ps2 = 0.0;
-    for ((xi, wr), grads) in re.points.iter().zip(&re.grads) {
+    for (p, ((xi, wr), grads)) in re.points.iter().zip(&re.grads).enumerate() {
         let mut cp = [0.0; 4];
         for &(a, gr) in grads {
             // ∇N = J⁻ᵀ ∇̂N̂ (the physical split is the affine image of the reference one).
@@ -671,11 +672,17 @@ pub fn corrected_ps2(
                 }
             }
         }
-        let (tau, ce) = field(*xi);
+        let (tau, ce) = field(p, *xi);
         let t: [f64; 4] = std::array::from_fn(|k| tau[k] + cp[k]);
         ps2 += wr * det * ps_density(el, t, ce);
     }
     ps2
+}
+
+/// The parent reference points at which [`corrected_ps2`] of (m, `degree`) evaluates its field,
+/// in the order of its point index.
+pub fn corrected_points(m: usize, degree: usize) -> Vec<[f64; 2]> {
+    split_rule(m, degree).points.iter().map(|p| p.0).collect()
 }
 
 /// The points of the rule of degree `degree` on each sub-triangle of the reference split of
@@ -1072,7 +1079,7 @@ mod tests {
         let c = both(v, m, poly);
         assert!(c.asym_before > 1e-3 && c.ps2 > 1e-2, "{c:?}");
         for degree in [affine_rule_degree(m), 20] {
-            let again = corrected_ps2(v, m, &EL, &c.phi, degree, poly);
+            let again = corrected_ps2(v, m, &EL, &c.phi, degree, |_, xi| poly(xi));
             assert!(
                 (again - c.ps2).abs() <= 1e-12 * c.ps2,
                 "degree {degree}: {again} against {}",
@@ -1087,9 +1094,11 @@ mod tests {
         };
         let c = correct_affine(v, m, &EL, |_, xi| rational(xi));
         let (low, high, higher) = (
-            corrected_ps2(v, m, &EL, &c.phi, affine_rule_degree(m), rational),
-            corrected_ps2(v, m, &EL, &c.phi, 20, rational),
-            corrected_ps2(v, m, &EL, &c.phi, 30, rational),
+            corrected_ps2(v, m, &EL, &c.phi, affine_rule_degree(m), |_, xi| {
+                rational(xi)
+            }),
+            corrected_ps2(v, m, &EL, &c.phi, 20, |_, xi| rational(xi)),
+            corrected_ps2(v, m, &EL, &c.phi, 30, |_, xi| rational(xi)),
         );
         assert!(
             (low - c.ps2).abs() <= 1e-12 * c.ps2,
