@@ -458,7 +458,7 @@ pub fn bound_with(
             let sh = mesh.shape[t];
             // u_h through a parent that is not a parallelogram is rational: the rule of
             // `halves::distance` for such cells.
-            let rational = shift.is_some_and(|sf| !sf.polynomial(t));
+            let rational = shift.is_some_and(|sf| sf.rational(t));
             let deg = if rational {
                 super::halves::DISTANCE_DEGREE_OTHER
             } else if !f_poly {

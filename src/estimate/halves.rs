@@ -566,6 +566,13 @@ impl<'a> Shift<'a> {
         self.mesh.shape[t] == Shape::Affine && self.halves.data.mesh.shape[s] == Shape::Affine
     }
 
+    /// Whether the shift is rational on split cell `s`: a quadrilateral parent that is not a
+    /// parallelogram, or a curved sub-triangle of one (on a triangle parent it is 0).
+    pub fn rational(&self, s: usize) -> bool {
+        let t = self.halves.parent[s] as usize;
+        self.mesh.family[t].is_quad() && !self.polynomial(s)
+    }
+
     /// ∇(u_h − ũ_h) at `sp`, a point of split cell `s` (its own map's point).
     pub fn gradient(&self, s: usize, sp: &SubPoint) -> [[f64; 2]; 2] {
         if !self.mesh.family[self.halves.parent[s] as usize].is_quad() {
