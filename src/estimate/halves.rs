@@ -550,12 +550,43 @@ pub struct Shift<'a> {
     mesh: &'a Mesh,
     halves: &'a Halves,
     u: &'a [[f64; 2]],
+    /// Per split cell under a parent that is not a parallelogram, the parent reference points
+    /// of its three mid nodes (empty elsewhere): with its vertices' (`Halves::reference`) they
+    /// give the P2 interpolant of the inverse map, the first guess of Newton's method at its
+    /// points (two or three steps instead of four or five from the affine guess).
+    mids: Vec<[[f64; 2]; 3]>,
 }
 
 impl<'a> Shift<'a> {
     /// The shift of `u` (nodal values on `mesh`, the parent) on `halves`, its split.
     pub fn new(mesh: &'a Mesh, halves: &'a Halves, u: &'a [[f64; 2]]) -> Shift<'a> {
-        Shift { mesh, halves, u }
+        use rayon::prelude::*;
+        let sub = &halves.data.mesh;
+        let mids = (0..sub.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|s| {
+                let t = halves.parent[s] as usize;
+                let fam = mesh.family[t];
+                if !fam.is_quad() || mesh.shape[t] == Shape::Affine {
+                    return [[0.0; 2]; 3];
+                }
+                let (x, xs) = (mesh.coords(t), sub.coords(s));
+                let r = halves.reference[s];
+                // Tri6 mid nodes 3, 4, 5 lie on the edges (0, 1), (1, 2), (2, 0).
+                std::array::from_fn(|j| {
+                    let (a, b) = (r[j], r[(j + 1) % 3]);
+                    let guess = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+                    invert(fam, &x[..fam.nodes()], xs[3 + j], guess)
+                })
+            })
+            .collect();
+        Shift {
+            mesh,
+            halves,
+            u,
+            mids,
+        }
     }
 
     /// Whether u_h is a polynomial on split cell `s` (a triangle parent, or a parallelogram
@@ -608,11 +639,27 @@ impl<'a> Shift<'a> {
         let x = mesh.coords(t);
         let n = fam.nodes();
         let [r0, r1, r2] = self.halves.reference[s];
-        let guess =
-            std::array::from_fn(|c| r0[c] + xi[0] * (r1[c] - r0[c]) + xi[1] * (r2[c] - r0[c]));
         let xp = if mesh.shape[t] == Shape::Affine {
-            guess
+            std::array::from_fn(|c| r0[c] + xi[0] * (r1[c] - r0[c]) + xi[1] * (r2[c] - r0[c]))
         } else {
+            let [m01, m12, m20] = self.mids[s];
+            let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+            let w = [
+                l[0] * (2.0 * l[0] - 1.0),
+                l[1] * (2.0 * l[1] - 1.0),
+                l[2] * (2.0 * l[2] - 1.0),
+                4.0 * l[0] * l[1],
+                4.0 * l[1] * l[2],
+                4.0 * l[2] * l[0],
+            ];
+            let guess = std::array::from_fn(|c| {
+                w[0] * r0[c]
+                    + w[1] * r1[c]
+                    + w[2] * r2[c]
+                    + w[3] * m01[c]
+                    + w[4] * m12[c]
+                    + w[5] * m20[c]
+            });
             invert(fam, &x[..n], target, guess)
         };
         let (_, g) = fam.shape(xp);
