@@ -135,11 +135,13 @@ fn on_split(
     );
     sub.length_scale = ctx.length_scale;
     let shift = Shift::new(ctx.mesh, &halves, u);
-    let (mut b, direct) = patch_bounds(&sub, &halves.u, order, sweeps, Some(&shift));
+    // Where ũ_h = u_h (Q1 parallelograms) the direct pairing is the same bound.
+    let direct = (!shift.vanishes()).then_some(&shift);
+    let (mut b, direct) = patch_bounds(&sub, &halves.u, order, sweeps, direct);
     if b.terms.is_none() {
         return b;
     }
-    let (d, energy) = distance(ctx, &halves, u);
+    let (d, energy) = distance(ctx, &shift);
     b.add_halves(d);
     let cut = match pattern {
         Pattern::Cross => "the four triangles about each quadrilateral's centre",

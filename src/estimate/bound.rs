@@ -719,6 +719,15 @@ pub fn bound_with(
                     }
                     None => field(xi),
                 };
+                // The same at the points of `symmetric::corrected_ps2` (rational cells).
+                let check_table = BasisTable::find(&check_tables, m, fam);
+                let checked = |p: usize, xi: [f64; 2]| match check_table {
+                    Some(st) => {
+                        let sp = st.geometry.point(&x[..fam.nodes()], p);
+                        at(&sp, rt.at_reference(first, &sp.jac, &st.rt[p]).0)
+                    }
+                    None => field(xi),
+                };
                 // A 6-node cell taken for straight whose mid nodes are off the midpoints (float32
                 // coordinates) has a slightly non-constant J: its RT field is not polynomial to
                 // round-off, and the reference-split correction leaves ~1e-9 of the stress
@@ -737,21 +746,11 @@ pub fn bound_with(
                     // Cε(u_h): the corrected stress's term at the degree of the cell loop (the
                     // Hertz Q2 file: up to 1 % per cell at 2m − 2; degree 20 and 30 agree to
                     // 1.5e-11 in the bound).
-                    c.ps2 =
-                        if rational && affine {
-                            let table = BasisTable::find(&check_tables, m, fam);
-                            symmetric::corrected_ps2(verts, m, &el, &fix.phi, deg, |p, xi| {
-                                match table {
-                                    Some(st) => {
-                                        let sp = st.geometry.point(&x[..fam.nodes()], p);
-                                        at(&sp, rt.at_reference(first, &sp.jac, &st.rt[p]).0)
-                                    }
-                                    None => field(xi),
-                                }
-                            })
-                        } else {
-                            fix.ps2
-                        };
+                    c.ps2 = if rational && affine {
+                        symmetric::corrected_ps2(verts, m, &el, &fix.phi, deg, checked)
+                    } else {
+                        fix.ps2
+                    };
                     c.asym = 0.0;
                     c.symmetrised = true;
                 }

@@ -497,8 +497,8 @@ pub(crate) const DISTANCE_DEGREE_OTHER: usize = 20;
 /// quadrilaterals (zero on triangles, where ũ_h is u_h), with u_h at each point through the
 /// inverse map of its parent, and ½|||u_h|||² (the reference of the bound's `relative`), by
 /// the same quadrature.
-pub fn distance(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> (f64, f64) {
-    let (d2, energy) = distance_squares(ctx, halves, u)
+pub fn distance(ctx: &Context, shift: &Shift) -> (f64, f64) {
+    let (d2, energy) = distance_squares(ctx, shift)
         .iter()
         .fold((0.0, 0.0), |(a, b), &(d, e)| (a + d, b + e));
     (d2.max(0.0).sqrt(), energy)
@@ -506,10 +506,9 @@ pub fn distance(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> (f64, f64) {
 
 /// Per triangle T of the split: ((Cε(ũ_h − u_h), ε(ũ_h − u_h))_T, ½(Cε(u_h), ε(u_h))_T)
 /// ([`distance`]).
-fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<(f64, f64)> {
+fn distance_squares(ctx: &Context, shift: &Shift) -> Vec<(f64, f64)> {
     use rayon::prelude::*;
-    let mesh = ctx.mesh;
-    let sub = &halves.data.mesh;
+    let sub = &shift.halves.data.mesh;
     let el = ctx.elastic;
     let density = |g: [[f64; 2]; 2]| {
         let sym = 0.5 * (g[0][1] + g[1][0]);
@@ -517,7 +516,6 @@ fn distance_squares(ctx: &Context, halves: &Halves, u: &[[f64; 2]]) -> Vec<(f64,
         let st = el.stress(eps);
         (0..4).map(|i| st[i] * eps[i]).sum::<f64>()
     };
-    let shift = Shift::new(mesh, halves, u);
     (0..sub.len())
         .into_par_iter()
         .with_min_len(256)
@@ -551,7 +549,7 @@ pub struct Shift<'a> {
     halves: &'a Halves,
     u: &'a [[f64; 2]],
     /// Per split cell under a parent that is not a parallelogram, the parent reference points
-    /// of its three mid nodes (empty elsewhere): with its vertices' (`Halves::reference`) they
+    /// of its three mid nodes (zeros elsewhere): with its vertices' (`Halves::reference`) they
     /// give the P2 interpolant of the inverse map, the first guess of Newton's method at its
     /// points (two or three steps instead of four or five from the affine guess).
     mids: Vec<[[f64; 2]; 3]>,
@@ -587,6 +585,13 @@ impl<'a> Shift<'a> {
             u,
             mids,
         }
+    }
+
+    /// Whether ũ_h = u_h everywhere: every quadrilateral is a Q1 parallelogram (a bilinear
+    /// field is a quadratic polynomial there) or there is none.
+    pub fn vanishes(&self) -> bool {
+        (self.mesh.family.iter().zip(&self.mesh.shape))
+            .all(|(f, &sh)| !f.is_quad() || (*f == Family::Quad4 && sh == Shape::Affine))
     }
 
     /// Whether u_h is a polynomial on split cell `s` (a triangle parent, or a parallelogram
@@ -643,23 +648,9 @@ impl<'a> Shift<'a> {
             std::array::from_fn(|c| r0[c] + xi[0] * (r1[c] - r0[c]) + xi[1] * (r2[c] - r0[c]))
         } else {
             let [m01, m12, m20] = self.mids[s];
-            let l = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
-            let w = [
-                l[0] * (2.0 * l[0] - 1.0),
-                l[1] * (2.0 * l[1] - 1.0),
-                l[2] * (2.0 * l[2] - 1.0),
-                4.0 * l[0] * l[1],
-                4.0 * l[1] * l[2],
-                4.0 * l[2] * l[0],
-            ];
-            let guess = std::array::from_fn(|c| {
-                w[0] * r0[c]
-                    + w[1] * r1[c]
-                    + w[2] * r2[c]
-                    + w[3] * m01[c]
-                    + w[4] * m12[c]
-                    + w[5] * m20[c]
-            });
+            let (w, _) = Family::Tri6.shape(xi);
+            let r = [r0, r1, r2, m01, m12, m20];
+            let guess = std::array::from_fn(|c| (0..6).map(|i| w[i] * r[i][c]).sum());
             invert(fam, &x[..n], target, guess)
         };
         let (_, g) = fam.shape(xp);
@@ -739,7 +730,7 @@ mod tests {
                 ((area - reference) / reference).abs() < 1e-13,
                 "{case} {pattern:?}: {area} against {reference}"
             );
-            let (d, energy) = distance(&ctx, &halves, &u);
+            let (d, energy) = distance(&ctx, &Shift::new(ctx.mesh, &halves, &u));
             let reference = expected["energy"]["energy"].as_f64().unwrap();
             assert!(
                 d < 1e-12 * reference.sqrt(),
@@ -787,7 +778,7 @@ mod tests {
             ((halves_area - shoelace) / shoelace).abs() < 1e-13,
             "{halves_area} against {shoelace}"
         );
-        let squares: Vec<f64> = distance_squares(&ctx, &halves, &u)
+        let squares: Vec<f64> = distance_squares(&ctx, &Shift::new(ctx.mesh, &halves, &u))
             .iter()
             .map(|p| p.0)
             .collect();
@@ -865,7 +856,7 @@ mod tests {
         assert!(checked > 10, "{checked} cells with a split term");
         // ½|||u_h|||² by the split's quadrature against the fixture's reference value
         // (reference/quads, expected.json `energy`).
-        let (d, energy) = distance(&ctx, &halves, &u);
+        let (d, energy) = distance(&ctx, &Shift::new(ctx.mesh, &halves, &u));
         assert!(d > 0.0);
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("fixtures/quad_hertz_skfem_q1/expected.json");
