@@ -90,62 +90,11 @@ pub fn potentials_cached(
     cache: &mut FlowCache,
 ) -> Vec<[f64; 3]> {
     let n = d.len();
-    let mut start = vec![0usize; n + 1];
-    for &[a, b] in edges {
-        start[a as usize + 1] += 1;
-        start[b as usize + 1] += 1;
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut adj = vec![0u32; start[n]];
-    for &[a, b] in edges {
-        adj[fill[a as usize]] = b;
-        fill[a as usize] += 1;
-        adj[fill[b as usize]] = a;
-        fill[b as usize] += 1;
-    }
-    // Connected components and the moments none of their patches can take (the kernel of
-    // Q L Q: p constant = c with c in every range of Q_a): the defect along them stays.
-    let mut comp = vec![u32::MAX; n];
-    let mut comps: Vec<(Vec<u32>, M3)> = Vec::new();
-    for s0 in 0..n {
-        if comp[s0] != u32::MAX || start[s0 + 1] == start[s0] {
-            continue;
-        }
-        let id = comps.len() as u32;
-        let mut members = vec![s0 as u32];
-        comp[s0] = id;
-        let mut i = 0;
-        let mut taken: Vec<[f64; 3]> = Vec::new();
-        while i < members.len() {
-            let v = members[i] as usize;
-            // I − Q_a spans what patch a takes (Q_a is symmetric: its rows are its columns).
-            for (r, row) in q[v].iter().enumerate() {
-                let col: [f64; 3] = std::array::from_fn(|c| f64::from(u8::from(r == c)) - row[c]);
-                if dot(col, col) > 1e-24 {
-                    taken.push(col);
-                }
-            }
-            for &w in &adj[start[v]..start[v + 1]] {
-                if comp[w as usize] == u32::MAX {
-                    comp[w as usize] = id;
-                    members.push(w);
-                }
-            }
-            i += 1;
-        }
-        let kernel = complement(&taken, 1e-10);
-        comps.push((members, kernel));
-    }
-    let factors = cache.direct.get_or_insert_with(|| {
-        comps
-            .iter()
-            .all(|(_, k)| k.iter().all(|row| row.iter().all(|&x| x == 0.0)))
-            .then(|| factor_direct(&start, &adj, q))
-            .flatten()
-    });
+    let (start, adj) = graph(edges, n);
+    let comps = components(&start, &adj, q);
+    let factors = cache
+        .direct
+        .get_or_insert_with(|| direct_for(&comps, &start, &adj, q));
     if let Some(p) = factors.as_ref().and_then(|f| solve_direct(f, d)) {
         return p;
     }
@@ -196,6 +145,84 @@ pub fn potentials_cached(
         .collect();
     let p = cg(&apply, &rhs, &diag, q, &remove_kernel);
     (0..n).map(|v| mul(&q[v], p[v])).collect()
+}
+
+/// Fills `cache` with the factorisation that [`potentials_cached`] builds for `edges` and `q`
+/// (one entry of `q` per vertex), so that it can run beside other work: it depends on the
+/// graph and Q only, not on the defects. The caller must pass the same `edges` and `q` later.
+pub fn prepare(edges: &[[u32; 2]], q: &[M3], cache: &mut FlowCache) {
+    let (start, adj) = graph(edges, q.len());
+    let comps = components(&start, &adj, q);
+    cache.direct = Some(direct_for(&comps, &start, &adj, q));
+}
+
+/// The vertex graph of `edges` in CSR form: the neighbours of v are
+/// `adj[start[v]..start[v + 1]]`.
+fn graph(edges: &[[u32; 2]], n: usize) -> (Vec<usize>, Vec<u32>) {
+    let mut start = vec![0usize; n + 1];
+    for &[a, b] in edges {
+        start[a as usize + 1] += 1;
+        start[b as usize + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut adj = vec![0u32; start[n]];
+    for &[a, b] in edges {
+        adj[fill[a as usize]] = b;
+        fill[a as usize] += 1;
+        adj[fill[b as usize]] = a;
+        fill[b as usize] += 1;
+    }
+    (start, adj)
+}
+
+/// Connected components and the moments none of their patches can take (the kernel of
+/// Q L Q: p constant = c with c in every range of Q_a): the defect along them stays.
+fn components(start: &[usize], adj: &[u32], q: &[M3]) -> Vec<(Vec<u32>, M3)> {
+    let n = start.len() - 1;
+    let mut comp = vec![u32::MAX; n];
+    let mut comps: Vec<(Vec<u32>, M3)> = Vec::new();
+    for s0 in 0..n {
+        if comp[s0] != u32::MAX || start[s0 + 1] == start[s0] {
+            continue;
+        }
+        let id = comps.len() as u32;
+        let mut members = vec![s0 as u32];
+        comp[s0] = id;
+        let mut i = 0;
+        let mut taken: Vec<[f64; 3]> = Vec::new();
+        while i < members.len() {
+            let v = members[i] as usize;
+            // I − Q_a spans what patch a takes (Q_a is symmetric: its rows are its columns).
+            for (r, row) in q[v].iter().enumerate() {
+                let col: [f64; 3] = std::array::from_fn(|c| f64::from(u8::from(r == c)) - row[c]);
+                if dot(col, col) > 1e-24 {
+                    taken.push(col);
+                }
+            }
+            for &w in &adj[start[v]..start[v + 1]] {
+                if comp[w as usize] == u32::MAX {
+                    comp[w as usize] = id;
+                    members.push(w);
+                }
+            }
+            i += 1;
+        }
+        let kernel = complement(&taken, 1e-10);
+        comps.push((members, kernel));
+    }
+    comps
+}
+
+/// The direct factors when no component has a kernel ([`factor_direct`]), else None (CG).
+fn direct_for(comps: &[(Vec<u32>, M3)], start: &[usize], adj: &[u32], q: &[M3]) -> Option<Direct> {
+    comps
+        .iter()
+        .all(|(_, k)| k.iter().all(|row| row.iter().all(|&x| x == 0.0)))
+        .then(|| factor_direct(start, adj, q))
+        .flatten()
 }
 
 /// The factorisations for the potentials by sparse Cholesky when every Q_a is diagonal with

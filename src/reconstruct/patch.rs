@@ -302,11 +302,55 @@ pub fn reconstruct(
             }
         }
     }
-    let mut outs: Vec<PatchOut> = (0..vertices.len())
-        .into_par_iter()
-        .with_min_len(64)
-        .map(|i| solve_one(i, &extra, true))
-        .collect();
+    // What each patch cannot take (flow.rs's Q_a) follows from its kind alone, so it is known
+    // before any solve.
+    let mut q = vec![[[0.0; 3]; 3]; npts];
+    for &v in &vertices {
+        let range = count[v] as usize..count[v + 1] as usize;
+        q[v] = cannot_take(
+            touches_dirichlet(ctx, &condition, &members[range]),
+            weak_symmetry,
+        );
+    }
+    let balance_pass = |range: std::ops::Range<usize>| -> Vec<PatchOut> {
+        range
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|i| solve_one(i, &extra, true))
+            .collect()
+    };
+    let needs_flow = |o: &PatchOut| {
+        (o.defect > FLOW_PASS_DEFECT || !o.feasible) && o.cannot_take != [[0.0; 3]; 3]
+    };
+    // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
+    let mut flow_cache = flow::FlowCache::default();
+    // One patch that needs the flows starts them (the loop below), and their factorisation
+    // depends on the graph and Q only: when the first FLOW_SAMPLE patches have one, it runs
+    // beside the other patches' balance instead of after it (1M P2 bench: ≈ 4 s of a serial
+    // stage). Otherwise nothing is started that may not be needed.
+    let first = vertices.len().min(FLOW_SAMPLE);
+    let mut outs = balance_pass(0..first);
+    if outs.iter().any(needs_flow) {
+        let (rest, ()) = rayon::join(
+            || balance_pass(first..vertices.len()),
+            || flow::prepare(&topo.edges, &q, &mut flow_cache),
+        );
+        outs.extend(rest);
+    } else {
+        outs.extend(balance_pass(first..vertices.len()));
+    }
+    // The kinds the solves found are those assumed above (a factorisation for another Q
+    // would be dropped).
+    if outs
+        .iter()
+        .zip(&vertices)
+        .any(|(o, &v)| o.cannot_take != q[v])
+    {
+        for (o, &v) in outs.iter().zip(&vertices) {
+            q[v] = o.cannot_take;
+        }
+        flow_cache = flow::FlowCache::default();
+    }
     // Each closed patch's force defect relative to its loads, but to no less than
     // LOAD_DEFECT_FLOOR × the largest patch's: where the loads themselves are at the solver's
     // residual level the ratio is 1 whatever the solver did.
@@ -326,18 +370,10 @@ pub fn reconstruct(
     // residual of the new solution is balanced again, up to FLOW_PASSES times while a defect is
     // above FLOW_PASS_DEFECT (design §5.10, step 4).
     let mut passes = 0;
-    // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
-    let mut flow_cache = flow::FlowCache::default();
-    while passes < FLOW_PASSES
-        && outs
-            .iter()
-            .any(|o| (o.defect > FLOW_PASS_DEFECT || !o.feasible) && o.cannot_take != [[0.0; 3]; 3])
-    {
+    while passes < FLOW_PASSES && outs.iter().any(needs_flow) {
         let mut d = vec![[0.0; 3]; npts];
-        let mut q = vec![[[0.0; 3]; 3]; npts];
         for (o, &v) in outs.iter().zip(&vertices) {
             d[v] = o.balance;
-            q[v] = o.cannot_take;
         }
         let p = flow::potentials_cached(&topo.edges, &q, &d, &mut flow_cache);
         // The moments of this pass' loads per patch: −(p_a − p_b) on a, + on b (flow.rs).
@@ -867,6 +903,35 @@ type Extra = [f64; 4];
 
 /// Patches solved at once in the last stage, whose cell coefficients are then summed.
 const FINAL_CHUNK: usize = 16_384;
+
+/// Patches whose balance is found first, to learn whether the flows will run (`reconstruct`):
+/// enough to meet a defect on a file that has them, few against a million patches.
+const FLOW_SAMPLE: usize = 4096;
+
+/// Whether a cell of the patch has an edge on a Dirichlet boundary: such a patch takes any
+/// rigid-motion moment (its unknowns include the fluxes through that edge).
+fn touches_dirichlet(ctx: &Context, condition: &[Option<Condition>], cells: &[(u32, u8)]) -> bool {
+    let topo = ctx.topo;
+    cells.iter().any(|&(t, _)| {
+        topo.cell_edges[t as usize][..3].iter().any(|&e| {
+            topo.edge_cells[e as usize][1] == NONE
+                && matches!(condition[e as usize], Some(Condition::Dirichlet(_)))
+        })
+    })
+}
+
+/// The moments a patch cannot take (flow.rs's Q_a): none with a Dirichlet edge; else the
+/// forces, and the rotation too when the weak symmetry rows fix ∫ as τ (without them the
+/// asymmetric part meets any rotation moment).
+fn cannot_take(dirichlet: bool, weak_symmetry: bool) -> flow::M3 {
+    if dirichlet {
+        [[0.0; 3]; 3]
+    } else if weak_symmetry {
+        flow::complement(&[], PATCH_DEPENDENT_ROW)
+    } else {
+        flow::complement(&[[0.0, 0.0, 1.0]], PATCH_DEPENDENT_ROW)
+    }
+}
 
 /// The point the flow loads of cell t turn about: its first node, a coordinate of the file, so
 /// that x − x_T keeps the digits of the cell's size however far the mesh is from the origin
@@ -1739,13 +1804,7 @@ fn solve_patch_rows(
         },
         dropped_higher: false,
         balance,
-        cannot_take: if dirichlet {
-            [[0.0; 3]; 3]
-        } else if weak_symmetry {
-            flow::complement(&[], PATCH_DEPENDENT_ROW)
-        } else {
-            flow::complement(&[[0.0, 0.0, 1.0]], PATCH_DEPENDENT_ROW)
-        },
+        cannot_take: cannot_take(dirichlet, weak_symmetry),
     }
 }
 
