@@ -952,7 +952,10 @@ type EdgeLoad = (u32, [f64; 3], [f64; 2]);
 /// ∫h·(x − x₀)^⊥): h = c₀e_x + c₁e_y + c₂(x − x̄)^⊥ with x̄ the centroid of the cells, so
 /// c₀ = y₀/|ω|, c₁ = y₁/|ω|, c₂ = (y₂ + |ω|(ȳ − y₀')c₀ − |ω|(x̄ − x₀')c₁)/∫|x − x̄|² (x₀ =
 /// (x₀', y₀')). Straight-cell quadrature of the area and second moment (the patch rows use the
-/// same points, so the moments the patches see are these up to round-off).
+/// same points, so the moments the patches see are these up to round-off). Closed forms on
+/// straight cells are not: far from the origin they differ from the rule by ~1e-10 relative,
+/// and the Hertz Q1 halves moved to (1e4, −3e4) kept patch defects of 1e-9 and lost their
+/// guarantee (BENCHMARKS.md, session 37).
 fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Option<Vec<EdgeLoad>> {
     let mesh = ctx.mesh;
     let rule = triangle_rule_cached(4);
