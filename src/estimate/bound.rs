@@ -709,25 +709,22 @@ pub fn bound_with(
                 } else {
                     rt.order.k() + 2
                 };
-                let table = BasisTable::find(&split_tables, m, fam);
-                // The split's points from the table: the same values as `field`, without
+                // A rule's points from its table: the same values as `field`, without
                 // evaluating the bases again.
-                let tabulated = |p: usize, xi: [f64; 2]| match table {
+                let from_table = |table: Option<&BasisTable>, p: usize, xi: [f64; 2]| match table {
                     Some(st) => {
                         let sp = st.geometry.point(&x[..fam.nodes()], p);
                         at(&sp, rt.at_reference(first, &sp.jac, &st.rt[p]).0)
                     }
                     None => field(xi),
                 };
-                // The same at the points of `symmetric::corrected_ps2` (rational cells).
-                let check_table = BasisTable::find(&check_tables, m, fam);
-                let checked = |p: usize, xi: [f64; 2]| match check_table {
-                    Some(st) => {
-                        let sp = st.geometry.point(&x[..fam.nodes()], p);
-                        at(&sp, rt.at_reference(first, &sp.jac, &st.rt[p]).0)
-                    }
-                    None => field(xi),
-                };
+                // The split's rule, and that of `symmetric::corrected_ps2` (rational cells).
+                let (split_table, check_table) = (
+                    BasisTable::find(&split_tables, m, fam),
+                    BasisTable::find(&check_tables, m, fam),
+                );
+                let tabulated = |p: usize, xi: [f64; 2]| from_table(split_table, p, xi);
+                let checked = |p: usize, xi: [f64; 2]| from_table(check_table, p, xi);
                 // A 6-node cell taken for straight whose mid nodes are off the midpoints (float32
                 // coordinates) has a slightly non-constant J: its RT field is not polynomial to
                 // round-off, and the reference-split correction leaves ~1e-9 of the stress

@@ -319,8 +319,8 @@ pub fn reconstruct(
             .map(|i| solve_one(i, &extra, true))
             .collect()
     };
-    let needs_flow = |o: &PatchOut| {
-        (o.defect > FLOW_PASS_DEFECT || !o.feasible) && o.cannot_take != [[0.0; 3]; 3]
+    let needs_flow = |(o, &v): (&PatchOut, &usize)| {
+        (o.defect > FLOW_PASS_DEFECT || !o.feasible) && q[v] != [[0.0; 3]; 3]
     };
     // Q is the same in every pass (it depends on the patch kinds only): one factorisation.
     let mut flow_cache = flow::FlowCache::default();
@@ -330,7 +330,7 @@ pub fn reconstruct(
     // stage). Otherwise nothing is started that may not be needed.
     let first = vertices.len().min(FLOW_SAMPLE);
     let mut outs = balance_pass(0..first);
-    if outs.iter().any(needs_flow) {
+    if outs.iter().zip(&vertices).any(needs_flow) {
         let (rest, ()) = rayon::join(
             || balance_pass(first..vertices.len()),
             || flow::prepare(&topo.edges, &q, &mut flow_cache),
@@ -339,26 +339,15 @@ pub fn reconstruct(
     } else {
         outs.extend(balance_pass(first..vertices.len()));
     }
-    // The kinds the solves found are those assumed above (a factorisation for another Q
-    // would be dropped).
-    if outs
-        .iter()
-        .zip(&vertices)
-        .any(|(o, &v)| o.cannot_take != q[v])
-    {
-        for (o, &v) in outs.iter().zip(&vertices) {
-            q[v] = o.cannot_take;
-        }
-        flow_cache = flow::FlowCache::default();
-    }
     // Each closed patch's force defect relative to its loads, but to no less than
     // LOAD_DEFECT_FLOOR × the largest patch's: where the loads themselves are at the solver's
     // residual level the ratio is 1 whatever the solver did.
     let largest = outs.iter().fold(0.0f64, |m, o| m.max(o.balance_scale));
     let load_defect = outs
         .iter()
-        .filter(|o| !o.solved && o.cannot_take != [[0.0; 3]; 3])
-        .map(|o| {
+        .zip(&vertices)
+        .filter(|&(o, &v)| !o.solved && q[v] != [[0.0; 3]; 3])
+        .map(|(o, _)| {
             relative_balance(
                 [o.balance[0], o.balance[1], 0.0],
                 o.balance_scale.max(LOAD_DEFECT_FLOOR * largest),
@@ -370,7 +359,7 @@ pub fn reconstruct(
     // residual of the new solution is balanced again, up to FLOW_PASSES times while a defect is
     // above FLOW_PASS_DEFECT (design §5.10, step 4).
     let mut passes = 0;
-    while passes < FLOW_PASSES && outs.iter().any(needs_flow) {
+    while passes < FLOW_PASSES && outs.iter().zip(&vertices).any(needs_flow) {
         let mut d = vec![[0.0; 3]; npts];
         for (o, &v) in outs.iter().zip(&vertices) {
             d[v] = o.balance;
@@ -742,7 +731,6 @@ impl PatchOut {
             dropped_higher: false,
             balance: [0.0; 3],
             balance_scale: 0.0,
-            cannot_take: [[0.0; 3]; 3],
         }
     }
 }
@@ -766,11 +754,6 @@ struct PatchOut {
     balance: [f64; 3],
     /// The largest sum of the magnitudes of the terms that make up a balance component.
     balance_scale: f64,
-    /// The projector onto the moments the patch cannot take by free fluxes (flow.rs's Q_a):
-    /// 0 with Dirichlet edges, the complement of the normal (and, with friction, tangential)
-    /// flux moments on contact edges, and the identity otherwise; without weak symmetry the
-    /// rotation moment is not a constraint and is always taken.
-    cannot_take: flow::M3,
 }
 
 /// The degree of the rule of a patch cell's integrals (design §5.10): exact on a straight cell
@@ -912,7 +895,8 @@ const FINAL_CHUNK: usize = 16_384;
 const FLOW_SAMPLE: usize = 4096;
 
 /// Whether a cell of the patch has an edge on a Dirichlet boundary: such a patch takes any
-/// rigid-motion moment (its unknowns include the fluxes through that edge).
+/// rigid-motion moment (its unknowns include the fluxes through that edge). The one rule for
+/// Q_a: the flows read it before any patch is solved.
 fn touches_dirichlet(ctx: &Context, condition: &[Option<Condition>], cells: &[(u32, u8)]) -> bool {
     let topo = ctx.topo;
     cells.iter().any(|&(t, _)| {
@@ -1053,7 +1037,6 @@ fn solve_patch_rows(
 ) -> PatchOut {
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
     let (x0, length) = (setup.origin, setup.length);
-    let mut dirichlet = false;
     let mesh = ctx.mesh;
     let topo = ctx.topo;
     let el = ctx.elastic;
@@ -1100,7 +1083,6 @@ fn solve_patch_rows(
                 }
                 (false, _) => {}
                 (true, Condition::Dirichlet(_)) => {
-                    dirichlet = true;
                     for row in vals.iter_mut() {
                         for v in row.iter_mut().take(ne) {
                             v.push(nvar, 1.0);
@@ -1810,7 +1792,6 @@ fn solve_patch_rows(
         },
         dropped_higher: false,
         balance,
-        cannot_take: cannot_take(dirichlet, weak_symmetry),
     }
 }
 
