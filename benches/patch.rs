@@ -202,6 +202,7 @@ fn child(spec: &str) {
             "traction": b.terms.as_ref().map(|t| t.traction),
             "energy": b.energy,
             "failed": b.failed_hypotheses,
+            "patch_stages": i.stages.iter().map(|(n, s)| json!([n, s])).collect::<Vec<_>>(),
         });
     }
     out["setup"] = json!(best[0]);

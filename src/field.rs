@@ -140,12 +140,16 @@ impl StressField<'_> {
                 let table = cv.table;
                 // Split tables hold the sub-triangles' Jacobians and coordinates (triangle
                 // tables are their own sub-triangle).
-                if table.family.is_quad() {
-                    let k = table.sub[q] as usize;
-                    rt.at(rt.first[t] as usize + k, &cv.jac[q], table.sub_points[q])
+                let sub = if table.family.is_quad() {
+                    table.sub[q] as usize
                 } else {
-                    rt.at(rt.first[t] as usize, &cv.jac[q], table.points[q])
-                }
+                    0
+                };
+                rt.at_reference(
+                    rt.first[t] as usize + sub,
+                    &cv.jac[q],
+                    &table.rt_reference(rt.order)[q],
+                )
             }
         }
     }

@@ -90,6 +90,9 @@ pub struct PatchInfo {
     pub load_defect: f64,
     /// What the improvement sweeps did (`sweep.rs`), when they ran.
     pub sweeps: super::sweep::SweepInfo,
+    /// Wall seconds per step of [`reconstruct`], in the order of design §5.10 (the flow steps
+    /// summed over the passes), for the benchmark's stage table.
+    pub stages: Vec<(&'static str, f64)>,
 }
 
 /// The result.
@@ -187,6 +190,7 @@ pub fn reconstruct(
     order: RtOrder,
 ) -> Result<Reconstruction, String> {
     let mesh = ctx.mesh;
+    let mut stages = Stages::default();
     if mesh.family.iter().any(|f| f.is_quad()) {
         return Err(
             "the patch reconstruction is implemented for triangle meshes only \
@@ -328,6 +332,7 @@ pub fn reconstruct(
     // depends on the graph and Q only: when the first FLOW_SAMPLE patches have one, it runs
     // beside the other patches' balance instead of after it (1M P2 bench: ≈ 4 s of a serial
     // stage). Otherwise nothing is started that may not be needed.
+    stages.lap("setup");
     let first = vertices.len().min(FLOW_SAMPLE);
     let mut outs = balance_pass(0..first);
     if outs.iter().zip(&vertices).any(needs_flow) {
@@ -339,6 +344,7 @@ pub fn reconstruct(
     } else {
         outs.extend(balance_pass(first..vertices.len()));
     }
+    stages.lap("balance pass");
     // Each closed patch's force defect relative to its loads, but to no less than
     // LOAD_DEFECT_FLOOR × the largest patch's: where the loads themselves are at the solver's
     // residual level the ratio is 1 whatever the solver did.
@@ -365,65 +371,62 @@ pub fn reconstruct(
             d[v] = o.balance;
         }
         let p = flow::potentials_cached(&topo.edges, &q, &d, &mut flow_cache);
+        stages.lap("flow potentials");
         // The moments of this pass' loads per patch: −(p_a − p_b) on a, + on b (flow.rs).
+        // Each edge's load is computed in parallel, a chunk of edges at a time (its quadrature
+        // was most of this serial step: 2.3 s of a 1M P2 run), and scattered serially.
         let mut shift = vec![[0.0; 3]; npts];
-        for (e, &[a, b]) in topo.edges.iter().enumerate() {
-            let m = [
-                p[a as usize][0] - p[b as usize][0],
-                p[a as usize][1] - p[b as usize][1],
-                p[a as usize][2] - p[b as usize][2],
-            ];
-            if m == [0.0; 3] {
-                continue;
-            }
-            let y = [m[0], m[1], m[2] * length];
-            let cells: Vec<u32> = topo.edge_cells[e]
-                .iter()
-                .copied()
-                .filter(|&c| c != NONE)
+        for start in (0..topo.edges.len()).step_by(LOAD_CHUNK) {
+            let end = (start + LOAD_CHUNK).min(topo.edges.len());
+            let loads: Vec<EdgeMoves> = (start..end)
+                .into_par_iter()
+                .with_min_len(256)
+                .filter_map(|e| edge_moves(ctx, &p, e, weak_symmetry, length, origin))
                 .collect();
-            // With the weak symmetry a rotation moment moves through the symmetry rows: patch
-            // a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so every cell's
-            // sum stays 0 and div σ_h is untouched (no body load to carry).
-            let y = if weak_symmetry && !cells.is_empty() {
-                let share = y[2] / cells.len() as f64;
-                for &t in &cells {
-                    for (vertex, sign) in [(a as usize, 1.0), (b as usize, -1.0)] {
-                        let range = count[vertex] as usize..count[vertex + 1] as usize;
-                        if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t) {
-                            extra[range.start + slot][3] += sign * share;
+            for mv in loads {
+                let [a, b] = topo.edges[mv.edge];
+                // With the weak symmetry a rotation moment moves through the symmetry rows:
+                // patch a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so
+                // every cell's sum stays 0 and div σ_h is untouched (no body load to carry).
+                if let Some(share) = mv.asym_share {
+                    for &t in &mv.cells {
+                        for (vertex, sign) in [(a as usize, 1.0), (b as usize, -1.0)] {
+                            let range = count[vertex] as usize..count[vertex + 1] as usize;
+                            if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t)
+                            {
+                                extra[range.start + slot][3] += sign * share;
+                            }
                         }
                     }
                 }
-                [y[0], y[1], 0.0]
-            } else {
-                y
-            };
-            let Some(h) = edge_load(ctx, &cells, y, origin) else {
-                continue;
-            };
-            for &(t, c, from_centre) in &h {
-                // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
-                let c = [
-                    c[0] - c[2] * from_centre[1],
-                    c[1] + c[2] * from_centre[0],
-                    c[2],
-                ];
-                for (vertex, sign) in [(a as usize, -1.0), (b as usize, 1.0)] {
-                    let range = count[vertex] as usize..count[vertex + 1] as usize;
-                    let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t) else {
-                        continue;
-                    };
-                    for (e, ci) in extra[range.start + slot].iter_mut().zip(c) {
-                        *e += sign * ci;
+                let Some(h) = mv.load else {
+                    continue;
+                };
+                for &(t, c, from_centre) in &h {
+                    // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
+                    let c = [
+                        c[0] - c[2] * from_centre[1],
+                        c[1] + c[2] * from_centre[0],
+                        c[2],
+                    ];
+                    for (vertex, sign) in [(a as usize, -1.0), (b as usize, 1.0)] {
+                        let range = count[vertex] as usize..count[vertex + 1] as usize;
+                        let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t)
+                        else {
+                            continue;
+                        };
+                        for (e, ci) in extra[range.start + slot].iter_mut().zip(c) {
+                            *e += sign * ci;
+                        }
                     }
                 }
-            }
-            for (c, mc) in m.iter().enumerate() {
-                shift[a as usize][c] -= mc;
-                shift[b as usize][c] += mc;
+                for (c, mc) in mv.moment.iter().enumerate() {
+                    shift[a as usize][c] -= mc;
+                    shift[b as usize][c] += mc;
+                }
             }
         }
+        stages.lap("flow loads");
         // A patch that only gave its balance: that balance is linear in the load, and the
         // loads h_E have the moments the flows gave them (edge_load), so it moves by `shift`
         // (exact on its straight cells, up to round-off). The others are solved again.
@@ -446,6 +449,7 @@ pub fn reconstruct(
             outs[i] = o;
         }
         passes += 1;
+        stages.lap("flow re-solves");
     }
     // The factors and Q are not needed by the final solves (≈ 0.6 GiB at 1M P2 cells).
     drop(flow_cache);
@@ -481,6 +485,7 @@ pub fn reconstruct(
                     .map(|&i| solve_with(&with_prior, i, &extra, false))
                     .collect()
             };
+            stages.lap("final solves");
             for (&i, mut o) in chunk.iter().zip(finals) {
                 // A patch solved in the passes (contact or curved) already has a solution with
                 // these loads: keep it when the colour-ordered solve met its constraints worse
@@ -500,6 +505,7 @@ pub fn reconstruct(
                 }
                 outs[i] = o;
             }
+            stages.lap("final merge");
         }
         for &v in &group {
             done[v] = true;
@@ -522,6 +528,8 @@ pub fn reconstruct(
         }
         info.max_defect = info.max_defect.max(o.defect);
     }
+    stages.lap("summary");
+    info.stages = stages.seconds;
     let first = (0..=mesh.len() as u32).collect();
     Ok(Reconstruction {
         stress: RtStress {
@@ -531,6 +539,87 @@ pub fn reconstruct(
         },
         info,
     })
+}
+
+/// What one edge moves in a flow pass (`edge_moves`).
+struct EdgeMoves {
+    edge: usize,
+    /// p_a − p_b, the moments taken from a and given to b.
+    moment: [f64; 3],
+    /// The edge's cells.
+    cells: Vec<u32>,
+    /// With the weak symmetry, the rotation moment's share per cell, moved through the
+    /// symmetry rows instead of a load.
+    asym_share: Option<f64>,
+    /// The load of the other moments on the cells (`edge_load`), None when it has none.
+    load: Option<Vec<EdgeLoad>>,
+}
+
+/// The moves of edge `e` = (a, b) for potentials `p` (flow.rs): None when p_a = p_b.
+fn edge_moves(
+    ctx: &Context,
+    p: &[[f64; 3]],
+    e: usize,
+    weak_symmetry: bool,
+    length: f64,
+    origin: [f64; 2],
+) -> Option<EdgeMoves> {
+    let [a, b] = ctx.topo.edges[e];
+    let moment = [
+        p[a as usize][0] - p[b as usize][0],
+        p[a as usize][1] - p[b as usize][1],
+        p[a as usize][2] - p[b as usize][2],
+    ];
+    if moment == [0.0; 3] {
+        return None;
+    }
+    let y = [moment[0], moment[1], moment[2] * length];
+    let cells: Vec<u32> = ctx.topo.edge_cells[e]
+        .iter()
+        .copied()
+        .filter(|&c| c != NONE)
+        .collect();
+    let (y, asym_share) = if weak_symmetry && !cells.is_empty() {
+        ([y[0], y[1], 0.0], Some(y[2] / cells.len() as f64))
+    } else {
+        (y, None)
+    };
+    let load = edge_load(ctx, &cells, y, origin);
+    Some(EdgeMoves {
+        edge: e,
+        moment,
+        cells,
+        asym_share,
+        load,
+    })
+}
+
+/// Wall time per named step, summed over repeated laps of one name.
+struct Stages {
+    clock: std::time::Instant,
+    seconds: Vec<(&'static str, f64)>,
+}
+
+impl Default for Stages {
+    fn default() -> Self {
+        Stages {
+            clock: std::time::Instant::now(),
+            seconds: Vec::new(),
+        }
+    }
+}
+
+impl Stages {
+    /// Adds the time since the last lap to `name`.
+    fn lap(&mut self, name: &'static str) {
+        let now = std::time::Instant::now();
+        let dt = (now - self.clock).as_secs_f64();
+        self.clock = now;
+        match self.seconds.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, s)) => *s += dt,
+            None => self.seconds.push((name, dt)),
+        }
+    }
 }
 
 /// Whether solution `new` of a patch meets its constraints worse than `old` of the same patch
@@ -890,6 +979,9 @@ type Extra = [f64; 4];
 /// Patches solved at once in the last stage, whose cell coefficients are then summed.
 const FINAL_CHUNK: usize = 16_384;
 
+/// Edges per parallel chunk of a flow pass' loads (`edge_moves`): ~10 MB of loads at a time.
+const LOAD_CHUNK: usize = 65_536;
+
 /// Patches whose balance is found first, to learn whether the flows will run (`reconstruct`):
 /// enough to meet a defect on a file that has them, few against a million patches.
 const FLOW_SAMPLE: usize = 4096;
@@ -1229,8 +1321,10 @@ fn solve_patch_rows(
     let mut rhs: Vec<f64> = Vec::new();
     let f_expr = scene.body_force.as_ref();
     let mut parts: Vec<CellPart> = Vec::with_capacity(cells.len());
-    let mut mloc = vec![0.0; nl * nl];
-    let mut mt = vec![0.0; nl * nr];
+    // The full local matrices of curved cells, sized when one is met (zeroing them for every
+    // patch was ~2 % of the patch stage's instructions).
+    let mut mloc = Vec::new();
+    let mut mt = Vec::new();
     let mut mred = vec![0.0; nr * nr];
     for (ci, &(t, j)) in cells.iter().enumerate() {
         let t = t as usize;
@@ -1286,7 +1380,9 @@ fn solve_patch_rows(
             part.shi = higher_symmetry_rows(re, order, fam, &x[..fam.nodes()], sh);
         }
         if !affine {
-            mloc.iter_mut().for_each(|v| *v = 0.0);
+            mloc.clear();
+            mloc.resize(nl * nl, 0.0);
+            mt.resize(nl * nr, 0.0);
         }
         for (pi, (&xi, &wq)) in rule.points.iter().zip(&rule.weights).enumerate() {
             let sp = match table {
