@@ -674,8 +674,8 @@ mod tests {
                     let m = monomials(xi);
                     let (v, d) = reference(order, xi);
                     for j in 0..b.n {
-                        for c in 0..2 {
-                            assert_eq!(v[j][c], eval(&b.values[j][c], &m, b.value_terms));
+                        for (vc, poly) in v[j].iter().zip(&b.values[j]) {
+                            assert_eq!(*vc, eval(poly, &m, b.value_terms));
                         }
                         assert_eq!(d[j], eval(&b.divergence[j], &m, b.divergence_terms));
                     }
