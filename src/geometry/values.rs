@@ -649,6 +649,24 @@ fn triangle_point(
     }
 }
 
+/// `sub_point(family, x, shape, k, ξ_sub).jac` alone, to the bit: on a triangle the cell
+/// map's Jacobian without the point and the physical gradients (the patch rows ask for four
+/// Jacobians per cell and patch).
+#[inline]
+pub fn sub_jacobian(
+    family: Family,
+    x: &[[f64; 2]],
+    shape: Shape,
+    k: usize,
+    xi_sub: [f64; 2],
+) -> Jacobian {
+    if family.is_quad() {
+        sub_point(family, x, shape, k, xi_sub).jac
+    } else {
+        jacobian(x, family.nodes(), &family.shape(xi_sub).1)
+    }
+}
+
 /// Geometry at ξ_sub of sub-triangle `k` of the cell of `family` with nodes `x`; `shape` is
 /// the cell's ([`crate::mesh::Mesh::shape`]).
 #[inline]

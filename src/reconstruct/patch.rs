@@ -47,7 +47,9 @@ use crate::element::rt::{self, MAX_RT_DOFS, RtOrder};
 pub use crate::field::RtStress;
 use crate::geometry::Family;
 use crate::geometry::Shape;
-use crate::geometry::values::{TriangleTable, rule_degree, sub_edge_point, sub_point};
+use crate::geometry::values::{
+    TriangleTable, rule_degree, sub_edge_point, sub_jacobian, sub_point,
+};
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{Condition, Context};
 use crate::quadrature::{line_rule_cached, triangle_rule_cached};
@@ -1287,14 +1289,13 @@ fn solve_patch_rows(
         let t = t as usize;
         let fam = mesh.family[t];
         let jac = (!quick && mesh.shape[t] == Shape::Affine).then(|| {
-            sub_point(
+            sub_jacobian(
                 fam,
                 &mesh.coords(t)[..fam.nodes()],
                 Shape::Affine,
                 0,
                 [1.0 / 3.0; 2],
             )
-            .jac
         });
         let eliminate = higher
             && bounded.is_empty()
@@ -1369,7 +1370,7 @@ fn solve_patch_rows(
         let mut bloc = [0.0; 2 * MAX_RT_DOFS];
         // The symmetry row ∫_T (τ_xy − τ_yx) exactly (J is linear in ξ; condense.rs).
         let jv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
-            .map(|xi| sub_point(fam, &x[..fam.nodes()], sh, 0, xi).jac.matrix);
+            .map(|xi| sub_jacobian(fam, &x[..fam.nodes()], sh, 0, xi).matrix);
         for i in 0..nloc {
             let [a, b] = condense::mean_value(re, jv, i);
             part.srow[i] = b;
@@ -2123,7 +2124,7 @@ pub(super) fn higher_symmetry_rows(
     // ∫_T̂ J φ̂_i q̂ for the two q̂, as [q][i][component].
     let mut m = [[[0.0; 2]; MAX_RT_DOFS]; 2];
     if sh == Shape::Affine {
-        let j = sub_point(fam, x, sh, 0, [1.0 / 3.0; 2]).jac.matrix;
+        let j = sub_jacobian(fam, x, sh, 0, [1.0 / 3.0; 2]).matrix;
         for (i, [m0, mx, my]) in re.first.iter().enumerate().take(nloc) {
             for (q, mq) in [mx, my].into_iter().enumerate() {
                 let v = [mq[0] - m0[0] / 3.0, mq[1] - m0[1] / 3.0];
@@ -2136,7 +2137,7 @@ pub(super) fn higher_symmetry_rows(
     } else {
         let rule = triangle_rule_cached(order.k() + 3);
         for (&xi, &w) in rule.points.iter().zip(&rule.weights) {
-            let j = sub_point(fam, x, sh, 0, xi).jac.matrix;
+            let j = sub_jacobian(fam, x, sh, 0, xi).matrix;
             let (v, _) = rt::reference(order, xi);
             let q = [xi[0] - 1.0 / 3.0, xi[1] - 1.0 / 3.0];
             for i in 0..nloc {
