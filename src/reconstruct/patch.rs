@@ -375,28 +375,38 @@ pub fn reconstruct(
         let p = flow::potentials_cached(&topo.edges, &q, &d, &mut flow_cache);
         stages.lap("flow potentials");
         // The moments of this pass' loads per patch: −(p_a − p_b) on a, + on b (flow.rs).
-        // Each edge's load is computed in parallel, a chunk of edges at a time (its quadrature
-        // was most of this serial step: 2.3 s of a 1M P2 run), and scattered serially.
+        // Each edge's load and the patch slots of its cells are found in parallel, a chunk of
+        // edges at a time (the quadrature and the slot searches were this serial step: 2.3 s
+        // of a 1M P2 run), and added serially, in the edges' order.
         let mut shift = vec![[0.0; 3]; npts];
         for start in (0..topo.edges.len()).step_by(LOAD_CHUNK) {
             let end = (start + LOAD_CHUNK).min(topo.edges.len());
             let loads: Vec<EdgeMoves> = (start..end)
                 .into_par_iter()
                 .with_min_len(256)
-                .filter_map(|e| edge_moves(ctx, &p, e, weak_symmetry, length, origin))
+                .filter_map(|e| {
+                    edge_moves(
+                        ctx,
+                        &p,
+                        e,
+                        weak_symmetry,
+                        length,
+                        origin,
+                        (&count, &members),
+                    )
+                })
                 .collect();
+            stages.lap("flow loads");
             for mv in loads {
                 let [a, b] = topo.edges[mv.edge];
                 // With the weak symmetry a rotation moment moves through the symmetry rows:
                 // patch a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so
                 // every cell's sum stays 0 and div σ_h is untouched (no body load to carry).
                 if let Some(share) = mv.asym_share {
-                    for &t in &mv.cells {
-                        for (vertex, sign) in [(a as usize, 1.0), (b as usize, -1.0)] {
-                            let range = count[vertex] as usize..count[vertex + 1] as usize;
-                            if let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t)
-                            {
-                                extra[range.start + slot][3] += sign * share;
+                    for slots in &mv.slots {
+                        for (slot, sign) in slots.iter().zip([1.0, -1.0]) {
+                            if let Some(slot) = slot {
+                                extra[*slot as usize][3] += sign * share;
                             }
                         }
                     }
@@ -404,20 +414,18 @@ pub fn reconstruct(
                 let Some(h) = mv.load else {
                     continue;
                 };
-                for &(t, c, from_centre) in &h {
+                for (&(_, c, from_centre), slots) in h.iter().zip(&mv.slots) {
                     // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
                     let c = [
                         c[0] - c[2] * from_centre[1],
                         c[1] + c[2] * from_centre[0],
                         c[2],
                     ];
-                    for (vertex, sign) in [(a as usize, -1.0), (b as usize, 1.0)] {
-                        let range = count[vertex] as usize..count[vertex + 1] as usize;
-                        let Some(slot) = members[range.clone()].iter().position(|m| m.0 == t)
-                        else {
+                    for (slot, sign) in slots.iter().zip([-1.0, 1.0]) {
+                        let Some(slot) = slot else {
                             continue;
                         };
-                        for (e, ci) in extra[range.start + slot].iter_mut().zip(c) {
+                        for (e, ci) in extra[*slot as usize].iter_mut().zip(c) {
                             *e += sign * ci;
                         }
                     }
@@ -427,8 +435,8 @@ pub fn reconstruct(
                     shift[b as usize][c] += mc;
                 }
             }
+            stages.lap("flow loads added");
         }
-        stages.lap("flow loads");
         // A patch that only gave its balance: that balance is linear in the load, and the
         // loads h_E have the moments the flows gave them (edge_load), so it moves by `shift`
         // (exact on its straight cells, up to round-off). The others are solved again.
@@ -548,8 +556,8 @@ struct EdgeMoves {
     edge: usize,
     /// p_a − p_b, the moments taken from a and given to b.
     moment: [f64; 3],
-    /// The edge's cells.
-    cells: Vec<u32>,
+    /// Per cell of the edge, its slot in the patch lists (`members`) of a and of b.
+    slots: Vec<[Option<u32>; 2]>,
     /// With the weak symmetry, the rotation moment's share per cell, moved through the
     /// symmetry rows instead of a load.
     asym_share: Option<f64>,
@@ -558,6 +566,7 @@ struct EdgeMoves {
 }
 
 /// The moves of edge `e` = (a, b) for potentials `p` (flow.rs): None when p_a = p_b.
+/// `patches`: the vertex patches' offsets and cell lists ([`vertex_patches`]).
 fn edge_moves(
     ctx: &Context,
     p: &[[f64; 3]],
@@ -565,6 +574,7 @@ fn edge_moves(
     weak_symmetry: bool,
     length: f64,
     origin: [f64; 2],
+    (count, members): (&[u32], &[(u32, u8)]),
 ) -> Option<EdgeMoves> {
     let [a, b] = ctx.topo.edges[e];
     let moment = [
@@ -587,10 +597,18 @@ fn edge_moves(
         (y, None)
     };
     let load = edge_load(ctx, &cells, y, origin);
+    let slot = |vertex: u32, t: u32| -> Option<u32> {
+        let range = count[vertex as usize] as usize..count[vertex as usize + 1] as usize;
+        members[range.clone()]
+            .iter()
+            .position(|m| m.0 == t)
+            .map(|k| (range.start + k) as u32)
+    };
+    let slots = cells.iter().map(|&t| [slot(a, t), slot(b, t)]).collect();
     Some(EdgeMoves {
         edge: e,
         moment,
-        cells,
+        slots,
         asym_share,
         load,
     })
