@@ -79,6 +79,41 @@ impl RtStress {
     }
 }
 
+/// `rt::reference(order, ξ)` at one point: values and divergences of the reference basis.
+type RtReference = ([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS]);
+
+/// Largest rule degree whose tables get their RT basis tabulated ([`rt_at_table`]).
+const TABULATED_RT_DEGREE: usize = 63;
+
+/// `rt::reference(order, ξ_q)` at every point q of the cached `table` (the sub-triangle's ξ on
+/// a split table), evaluated once per (order, family, degree, split): the stress at a point of
+/// an RT field was ~40 % basis evaluation in the F stage. The tables of `values::table` are
+/// one per such key, so the key names the points. None above [`TABULATED_RT_DEGREE`].
+fn rt_at_table(
+    order: RtOrder,
+    table: &'static crate::geometry::values::Table,
+) -> Option<&'static [RtReference]> {
+    use std::sync::OnceLock;
+    const FAMILIES: usize = crate::geometry::Family::ALL.len();
+    const SLOTS: usize = 3 * FAMILIES * (TABULATED_RT_DEGREE + 1) * 2;
+    static CACHE: [OnceLock<Box<[RtReference]>>; SLOTS] = [const { OnceLock::new() }; SLOTS];
+    if table.degree > TABULATED_RT_DEGREE {
+        return None;
+    }
+    let family = crate::geometry::Family::ALL
+        .iter()
+        .position(|&f| f == table.family)?;
+    let split = !table.sub_points.is_empty();
+    let key = ((order.k() * FAMILIES + family) * (TABULATED_RT_DEGREE + 1) + table.degree) * 2
+        + usize::from(split);
+    let points = if table.family.is_quad() {
+        &table.sub_points
+    } else {
+        &table.points
+    };
+    Some(CACHE[key].get_or_init(|| points.iter().map(|&xi| rt::reference(order, xi)).collect()))
+}
+
 /// A stress the functional can be evaluated for (docs/design.md §4).
 #[derive(Clone, Copy, Debug)]
 pub enum StressField<'a> {
@@ -140,16 +175,16 @@ impl StressField<'_> {
                 let table = cv.table;
                 // Split tables hold the sub-triangles' Jacobians and coordinates (triangle
                 // tables are their own sub-triangle).
-                let sub = if table.family.is_quad() {
-                    table.sub[q] as usize
+                let (sub, xi) = if table.family.is_quad() {
+                    (table.sub[q] as usize, table.sub_points[q])
                 } else {
-                    0
+                    (0, table.points[q])
                 };
-                rt.at_reference(
-                    rt.first[t] as usize + sub,
-                    &cv.jac[q],
-                    &table.rt_reference(rt.order)[q],
-                )
+                let first = rt.first[t] as usize + sub;
+                match rt_at_table(rt.order, table) {
+                    Some(basis) => rt.at_reference(first, &cv.jac[q], &basis[q]),
+                    None => rt.at(first, &cv.jac[q], xi),
+                }
             }
         }
     }

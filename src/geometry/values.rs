@@ -35,16 +35,7 @@ pub struct Table {
     /// Split tables: the sub-triangle of each point and its coordinate there.
     pub sub: Vec<u8>,
     pub sub_points: Vec<[f64; 2]>,
-    /// The RT_k reference basis at the points (on the sub-triangles of split tables), per k,
-    /// evaluated on first use ([`Table::rt_reference`]).
-    rt: [OnceLock<Vec<RtReference>>; 3],
 }
-
-/// `rt::reference(order, ξ)` at one point: values and divergences of the reference basis.
-pub type RtReference = (
-    [[f64; 2]; crate::element::rt::MAX_RT_DOFS],
-    [f64; crate::element::rt::MAX_RT_DOFS],
-);
 
 impl Table {
     fn build(family: Family, degree: usize, split: bool) -> Table {
@@ -82,25 +73,7 @@ impl Table {
             gradients,
             sub,
             sub_points,
-            rt: Default::default(),
         }
-    }
-
-    /// `rt::reference(order, ξ_q)` for every point q of the table (the sub-triangle's ξ on a
-    /// split table), evaluated once: the stress at a point of an RT field was ~40 % basis
-    /// evaluation in the F and bound stages.
-    pub fn rt_reference(&self, order: crate::element::rt::RtOrder) -> &[RtReference] {
-        self.rt[order.k()].get_or_init(|| {
-            let points = if self.family.is_quad() {
-                &self.sub_points
-            } else {
-                &self.points
-            };
-            points
-                .iter()
-                .map(|&xi| crate::element::rt::reference(order, xi))
-                .collect()
-        })
     }
 
     #[inline]
