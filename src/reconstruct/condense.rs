@@ -251,6 +251,11 @@ fn build(order: RtOrder) -> Reference {
 /// one row, whose ∫_T as τ = ±∫_T ∂b vanishes as b = 0 on ∂T; the products leave ~1e-14 there,
 /// which a patch whose only unknowns are kernel values met with values ~1e14 (design §5.10).
 pub fn symmetry_row_reduced(re: &Reference, srow: &[f64], constant: bool, g: &mut [f64]) {
+    // RT_2's sizes fixed at compile time (the loops unroll); same sums, same order.
+    if (re.nloc, re.nred) == (15, 10) {
+        symmetry_row_fixed::<15, 10>(re, srow, constant, g);
+        return;
+    }
     let (nloc, nred, nedge) = (re.nloc, re.nred, re.nedge);
     g[..2 * nred].fill(0.0);
     for r in 0..2 {
@@ -268,6 +273,36 @@ pub fn symmetry_row_reduced(re: &Reference, srow: &[f64], constant: bool, g: &mu
         }
         if constant {
             out[nedge..].fill(0.0);
+        }
+    }
+}
+
+/// [`symmetry_row_reduced`] with NLOC = nloc and NRED = nred fixed.
+fn symmetry_row_fixed<const NLOC: usize, const NRED: usize>(
+    re: &Reference,
+    srow: &[f64],
+    constant: bool,
+    g: &mut [f64],
+) {
+    g[..2 * NRED].fill(0.0);
+    for r in 0..2 {
+        let out: &mut [f64; NRED] = (&mut g[r * NRED..(r + 1) * NRED])
+            .try_into()
+            .expect("NRED values");
+        for c in 0..NLOC {
+            let sc = srow[r * NLOC + c];
+            if sc == 0.0 {
+                continue;
+            }
+            let tc: &[f64; NRED] = re.transform[c * NRED..(c + 1) * NRED]
+                .try_into()
+                .expect("NRED values");
+            for (o, t) in out.iter_mut().zip(tc) {
+                *o += sc * t;
+            }
+        }
+        if constant {
+            out[re.nedge..].fill(0.0);
         }
     }
 }
@@ -585,6 +620,45 @@ mod tests {
                     g[q]
                 );
             }
+        }
+    }
+
+    /// The fixed-size symmetry row is the run-time-size one, bit for bit.
+    #[test]
+    fn fixed_symmetry_row_is_the_general_one() {
+        let re = reference(RtOrder::Rt2);
+        let srow: Vec<f64> = (0..2 * re.nloc)
+            .map(|i| {
+                if i % 4 == 1 {
+                    0.0
+                } else {
+                    ((i * 5 + 2) % 9) as f64 / 3.0 - 1.1
+                }
+            })
+            .collect();
+        for constant in [false, true] {
+            let mut fast = vec![0.0; 2 * re.nred];
+            symmetry_row_reduced(re, &srow, constant, &mut fast);
+            let mut slow = vec![0.0; 2 * re.nred];
+            for r in 0..2 {
+                for c in 0..re.nloc {
+                    let sc = srow[r * re.nloc + c];
+                    if sc == 0.0 {
+                        continue;
+                    }
+                    for y in 0..re.nred {
+                        slow[r * re.nred + y] += sc * re.transform[c * re.nred + y];
+                    }
+                }
+                if constant {
+                    slow[r * re.nred + re.nedge..(r + 1) * re.nred].fill(0.0);
+                }
+            }
+            assert!(
+                fast.iter()
+                    .zip(&slow)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            );
         }
     }
 
