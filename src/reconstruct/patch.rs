@@ -999,8 +999,8 @@ type Extra = [f64; 4];
 /// Patches solved at once in the last stage, whose cell coefficients are then summed.
 const FINAL_CHUNK: usize = 16_384;
 
-/// Edges per parallel chunk of a flow pass' loads (`edge_moves`): ~10 MB of loads at a time.
-const LOAD_CHUNK: usize = 65_536;
+/// Edges per parallel chunk of a flow pass' loads (`edge_moves`): ~4 MB of moves at a time.
+const LOAD_CHUNK: usize = 16_384;
 
 /// Patches whose balance is found first, to learn whether the flows will run (`reconstruct`):
 /// enough to meet a defect on a file that has them, few against a million patches.
