@@ -396,6 +396,7 @@ pub fn reference(order: RtOrder, xi: [f64; 2]) -> ([[f64; 2]; MAX_RT_DOFS], [f64
         v: &mut [[f64; 2]; MAX_RT_DOFS],
         d: &mut [f64; MAX_RT_DOFS],
     ) {
+        debug_assert_eq!((b.value_terms, b.divergence_terms), (NV, ND));
         for j in 0..b.n {
             v[j] = [
                 eval_fixed::<NV>(&b.values[j][0], m),
@@ -404,16 +405,11 @@ pub fn reference(order: RtOrder, xi: [f64; 2]) -> ([[f64; 2]; MAX_RT_DOFS], [f64
             d[j] = eval_fixed::<ND>(&b.divergence[j], m);
         }
     }
-    match (b.value_terms, b.divergence_terms) {
-        (3, 1) => fill::<3, 1>(b, &m, &mut v, &mut d),
-        (6, 3) => fill::<6, 3>(b, &m, &mut v, &mut d),
-        (10, 6) => fill::<10, 6>(b, &m, &mut v, &mut d),
-        (nv, nd) => {
-            for j in 0..b.n {
-                v[j] = [eval(&b.values[j][0], &m, nv), eval(&b.values[j][1], &m, nv)];
-                d[j] = eval(&b.divergence[j], &m, nd);
-            }
-        }
+    // (k + 2)(k + 3)/2 value terms and (k + 1)(k + 2)/2 divergence terms.
+    match order {
+        RtOrder::Rt0 => fill::<3, 1>(b, &m, &mut v, &mut d),
+        RtOrder::Rt1 => fill::<6, 3>(b, &m, &mut v, &mut d),
+        RtOrder::Rt2 => fill::<10, 6>(b, &m, &mut v, &mut d),
     }
     (v, d)
 }

@@ -254,8 +254,13 @@ pub fn symmetry_row_reduced(re: &Reference, srow: &[f64], constant: bool, g: &mu
     // RT_2's sizes fixed at compile time (the loops unroll); same sums, same order.
     if (re.nloc, re.nred) == (15, 10) {
         symmetry_row_fixed::<15, 10>(re, srow, constant, g);
-        return;
+    } else {
+        symmetry_row_any(re, srow, constant, g);
     }
+}
+
+/// [`symmetry_row_reduced`] for any sizes.
+fn symmetry_row_any(re: &Reference, srow: &[f64], constant: bool, g: &mut [f64]) {
     let (nloc, nred, nedge) = (re.nloc, re.nred, re.nedge);
     g[..2 * nred].fill(0.0);
     for r in 0..2 {
@@ -640,20 +645,7 @@ mod tests {
             let mut fast = vec![0.0; 2 * re.nred];
             symmetry_row_reduced(re, &srow, constant, &mut fast);
             let mut slow = vec![0.0; 2 * re.nred];
-            for r in 0..2 {
-                for c in 0..re.nloc {
-                    let sc = srow[r * re.nloc + c];
-                    if sc == 0.0 {
-                        continue;
-                    }
-                    for y in 0..re.nred {
-                        slow[r * re.nred + y] += sc * re.transform[c * re.nred + y];
-                    }
-                }
-                if constant {
-                    slow[r * re.nred + re.nedge..(r + 1) * re.nred].fill(0.0);
-                }
-            }
+            symmetry_row_any(re, &srow, constant, &mut slow);
             assert!(
                 fast.iter()
                     .zip(&slow)

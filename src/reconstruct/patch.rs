@@ -402,8 +402,9 @@ pub fn reconstruct(
                 // With the weak symmetry a rotation moment moves through the symmetry rows:
                 // patch a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so
                 // every cell's sum stays 0 and div σ_h is untouched (no body load to carry).
+                let slots = &mv.slots[..mv.cells];
                 if let Some(share) = mv.asym_share {
-                    for slots in &mv.slots {
+                    for slots in slots {
                         for (slot, sign) in slots.iter().zip([1.0, -1.0]) {
                             if let Some(slot) = slot {
                                 extra[*slot as usize][3] += sign * share;
@@ -414,7 +415,7 @@ pub fn reconstruct(
                 let Some(h) = mv.load else {
                     continue;
                 };
-                for (&(_, c, from_centre), slots) in h.iter().zip(&mv.slots) {
+                for (&(_, c, from_centre), slots) in h.iter().zip(slots) {
                     // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
                     let c = [
                         c[0] - c[2] * from_centre[1],
@@ -556,8 +557,10 @@ struct EdgeMoves {
     edge: usize,
     /// p_a − p_b, the moments taken from a and given to b.
     moment: [f64; 3],
-    /// Per cell of the edge, its slot in the patch lists (`members`) of a and of b.
-    slots: Vec<[Option<u32>; 2]>,
+    /// Per cell of the edge (the first `cells`), its slot in the patch lists (`members`) of a
+    /// and of b.
+    slots: [[Option<u32>; 2]; 2],
+    cells: usize,
     /// With the weak symmetry, the rotation moment's share per cell, moved through the
     /// symmetry rows instead of a load.
     asym_share: Option<f64>,
@@ -586,17 +589,20 @@ fn edge_moves(
         return None;
     }
     let y = [moment[0], moment[1], moment[2] * length];
-    let cells: Vec<u32> = ctx.topo.edge_cells[e]
-        .iter()
-        .copied()
-        .filter(|&c| c != NONE)
-        .collect();
+    // The edge's cells, on the stack (this runs for every edge of every pass).
+    let mut both = [0u32; 2];
+    let mut n = 0;
+    for &c in ctx.topo.edge_cells[e].iter().filter(|&&c| c != NONE) {
+        both[n] = c;
+        n += 1;
+    }
+    let cells = &both[..n];
     let (y, asym_share) = if weak_symmetry && !cells.is_empty() {
         ([y[0], y[1], 0.0], Some(y[2] / cells.len() as f64))
     } else {
         (y, None)
     };
-    let load = edge_load(ctx, &cells, y, origin);
+    let load = edge_load(ctx, cells, y, origin);
     let slot = |vertex: u32, t: u32| -> Option<u32> {
         let range = count[vertex as usize] as usize..count[vertex as usize + 1] as usize;
         members[range.clone()]
@@ -604,11 +610,15 @@ fn edge_moves(
             .position(|m| m.0 == t)
             .map(|k| (range.start + k) as u32)
     };
-    let slots = cells.iter().map(|&t| [slot(a, t), slot(b, t)]).collect();
+    let mut slots = [[None; 2]; 2];
+    for (s, &t) in slots.iter_mut().zip(cells) {
+        *s = [slot(a, t), slot(b, t)];
+    }
     Some(EdgeMoves {
         edge: e,
         moment,
         slots,
+        cells: n,
         asym_share,
         load,
     })
