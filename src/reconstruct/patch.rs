@@ -124,15 +124,6 @@ impl Lin {
         &self.terms[..self.n as usize]
     }
 
-    fn scaled(&self, s: f64) -> Lin {
-        let mut out = *self;
-        for t in &mut out.terms[..self.n as usize] {
-            t.1 *= s;
-        }
-        out.c *= s;
-        out
-    }
-
     fn value(&self, x: &[f64]) -> f64 {
         self.terms().iter().map(|&(v, c)| c * x[v as usize]).sum()
     }
@@ -1201,8 +1192,9 @@ fn solve_patch_rows(
     // Extra equalities x_j = 0 (contact edges facing an infinite gap).
     let mut zero_vars: Vec<usize> = Vec::new();
     // Global edge → its slot values per row (global orientation).
-    let mut edge_ids: Vec<u32> = Vec::new();
-    let mut edge_vals: Vec<[[Lin; 3]; 2]> = Vec::new();
+    // At most 3 per cell; sized once (their regrowth copied ~3 % of a balance-only patch).
+    let mut edge_ids: Vec<u32> = Vec::with_capacity(3 * cells.len());
+    let mut edge_vals: Vec<[[Lin; 3]; 2]> = Vec::with_capacity(3 * cells.len());
     for &(t, _) in cells {
         let t = t as usize;
         for l in 0..3 {
@@ -1375,7 +1367,7 @@ fn solve_patch_rows(
     } else {
         vec![0.0; nvar * nvar]
     };
-    let mut bvec = vec![0.0; nvar];
+    let mut bvec = if quick { Vec::new() } else { vec![0.0; nvar] };
     // Equality rows B (flat, row-major, nvar columns) and their right-hand sides d.
     let mut rows: Vec<f64> = Vec::new();
     let mut rhs: Vec<f64> = Vec::new();
@@ -1385,7 +1377,11 @@ fn solve_patch_rows(
     // patch was ~2 % of the patch stage's instructions).
     let mut mloc = Vec::new();
     let mut mt = Vec::new();
-    let mut mred = vec![0.0; nr * nr];
+    let mut mred = if quick {
+        Vec::new()
+    } else {
+        vec![0.0; nr * nr]
+    };
     for (ci, &(t, j)) in cells.iter().enumerate() {
         let t = t as usize;
         let j = j as usize;
@@ -1397,7 +1393,7 @@ fn solve_patch_rows(
         let xt = anchor(mesh, t);
         let mut part = CellPart {
             t: t as u32,
-            emap: [[Lin::default(); MAX_EDGE_DOFS]; 2],
+            emap: [[EdgeRef::default(); MAX_EDGE_DOFS]; 2],
             c0: [0.0; 2 * MAX_RT_DOFS],
             g: [[0.0; MAX_MOMENTS]; 2],
             srow: [0.0; 2 * MAX_RT_DOFS],
@@ -1414,7 +1410,11 @@ fn solve_patch_rows(
                 let pos = edge_ids.iter().position(|&x| x == e).expect("patch edge");
                 let forward = topo.cell_edge_sign[t][l] > 0;
                 for (loc, slot, sign) in rt::local_to_global_edge(order, l, forward) {
-                    part.emap[r][loc] = edge_vals[pos][r][slot].scaled(sign);
+                    part.emap[r][loc] = EdgeRef {
+                        pos: pos as u16,
+                        slot: slot as u8,
+                        negative: sign < 0.0,
+                    };
                 }
             }
         }
@@ -1579,15 +1579,19 @@ fn solve_patch_rows(
         // c = T E y + c₀ with y the patch unknowns (condense.rs).
         for r in 0..2 {
             for e in 0..nedge {
-                part.c0[r * nloc + e] = part.emap[r][e].c;
+                part.c0[r * nloc + e] = part.emap[r][e].constant(&edge_vals, r);
             }
-            for i in 0..re.nint {
+            let ec = &part.c0[r * nloc..r * nloc + nedge];
+            let mut interior = [0.0; MAX_RT_DOFS];
+            for (i, ci) in interior.iter_mut().enumerate().take(re.nint) {
                 let mut v: f64 = (0..nq).map(|q| re.pinv[i * nq + q] * part.g[r][q]).sum();
-                for e in 0..nedge {
-                    v += re.transform[(nedge + i) * nred + e] * part.emap[r][e].c;
+                let row = &re.transform[(nedge + i) * nred..(nedge + i) * nred + nedge];
+                for (t, c) in row.iter().zip(ec) {
+                    v += t * c;
                 }
-                part.c0[r * nloc + nedge + i] = v;
+                *ci = v;
             }
+            part.c0[r * nloc + nedge..(r + 1) * nloc].copy_from_slice(&interior[..re.nint]);
         }
         {
             let (p0, p1, p2) = (x[0], x[1], x[2]);
@@ -1705,31 +1709,35 @@ fn solve_patch_rows(
             let (r, y) = (a / nred.max(1), a % nred.max(1));
             [((part.kernel + r * nz + y.saturating_sub(nedge)) as u32, 1.0)]
         });
-        let rmap: [&[(u32, f64)]; 2 * MAX_REDUCED] = std::array::from_fn(|a| {
+        // Each with its sign (±1, so the products are those of scaled copies, bit for bit).
+        let rmap: [(&[(u32, f64)], f64); 2 * MAX_REDUCED] = std::array::from_fn(|a| {
             let (r, y) = (a / nred.max(1), a % nred.max(1));
             if a >= nr || (y >= nedge && eliminate) {
-                &[]
+                (&[][..], 1.0)
             } else if y < nedge {
-                part.emap[r][y].terms()
+                let (lin, sign) = part.emap[r][y].of(&edge_vals, r);
+                (lin.terms(), sign)
             } else {
-                &kernel_terms[a][..]
+                (&kernel_terms[a][..], 1.0)
             }
         });
         for a in 0..nr {
-            let ta = rmap[a];
+            let (ta, sa) = rmap[a];
             for (c, &mv) in mred[a * nr..(a + 1) * nr].iter().enumerate() {
                 if mv == 0.0 {
                     continue;
                 }
+                let (tc, sc) = rmap[c];
                 for &(va, ca) in ta {
+                    let ca = sa * ca;
                     let mrow = &mut m[va as usize * nvar..(va as usize + 1) * nvar];
-                    for &(vc, cc) in rmap[c] {
-                        mrow[vc as usize] += ca * cc * mv;
+                    for &(vc, cc) in tc {
+                        mrow[vc as usize] += ca * (sc * cc) * mv;
                     }
                 }
             }
             for &(va, ca) in ta {
-                bvec[va as usize] += ca * bred[a];
+                bvec[va as usize] += (sa * ca) * bred[a];
             }
         }
         mred.iter_mut().for_each(|v| *v = 0.0);
@@ -1741,8 +1749,9 @@ fn solve_patch_rows(
                 if ga == 0.0 {
                     continue;
                 }
-                for &(va, ca) in rmap[a] {
-                    row[va as usize] += ga * ca;
+                let (ta, sa) = rmap[a];
+                for &(va, ca) in ta {
+                    row[va as usize] += ga * (sa * ca);
                 }
             }
             rhs.push(d);
@@ -1836,7 +1845,8 @@ fn solve_patch_rows(
             let mut y = [[0.0; MAX_REDUCED]; 2];
             for r in 0..2 {
                 for e in 0..nedge {
-                    y[r][e] = part.emap[r][e].value(x);
+                    let (lin, sign) = part.emap[r][e].of(&edge_vals, r);
+                    y[r][e] = sign * lin.value(x);
                 }
             }
             for r in 0..2 {
@@ -2220,11 +2230,37 @@ pub(super) fn higher_symmetry_rows(
     out
 }
 
+/// A local edge DOF of a patch cell: slot `slot` of the patch's edge `pos` (its expression in
+/// the patch unknowns, in the edge's global orientation), negated when the cell runs the edge
+/// backwards (sign −1 of `rt::local_to_global_edge`). A reference, not a scaled copy of the
+/// expression: those copies were ~17 % of a balance-only patch's time (1M P2 bench), and
+/// negation is exact, so the products are the same bits.
+#[derive(Clone, Copy, Default)]
+struct EdgeRef {
+    pos: u16,
+    slot: u8,
+    negative: bool,
+}
+
+impl EdgeRef {
+    /// The expression (row r) and the sign ±1 it enters with.
+    fn of(self, edge_vals: &[[[Lin; 3]; 2]], r: usize) -> (&Lin, f64) {
+        let sign = if self.negative { -1.0 } else { 1.0 };
+        (&edge_vals[self.pos as usize][r][self.slot as usize], sign)
+    }
+
+    /// The expression's constant, signed.
+    fn constant(self, edge_vals: &[[[Lin; 3]; 2]], r: usize) -> f64 {
+        let (lin, sign) = self.of(edge_vals, r);
+        sign * lin.c
+    }
+}
+
 /// One cell of a patch, kept from assembly to the recovery of its coefficients.
 struct CellPart {
     t: u32,
     /// Local edge DOF (row r, e < 3(k+1)) → affine expression in the patch unknowns.
-    emap: [[Lin; MAX_EDGE_DOFS]; 2],
+    emap: [[EdgeRef; MAX_EDGE_DOFS]; 2],
     /// c₀ = T ē₀ + t₀ per row (condense.rs), local index r·nloc + i.
     c0: [f64; 2 * MAX_RT_DOFS],
     /// The divergence rows' right-hand sides ∫ target_r q̂ (row r, moment q).
