@@ -50,7 +50,7 @@ pub use crate::field::RtStress;
 use crate::geometry::Family;
 use crate::geometry::Shape;
 use crate::geometry::values::{
-    TriangleTable, rule_degree, sub_edge_point, sub_jacobian, sub_point,
+    SubPoint, TriangleTable, rule_degree, sub_edge_point, sub_jacobian, sub_point,
 };
 use crate::mesh::{Mesh, NONE};
 use crate::problem::{Condition, Context};
@@ -408,7 +408,7 @@ pub fn reconstruct(
                 let Some(h) = mv.load else {
                     continue;
                 };
-                for (&(_, c, from_centre), slots) in h.iter().zip(slots) {
+                for (&(_, c, from_centre), slots) in h[..mv.cells].iter().zip(slots) {
                     // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
                     let c = [
                         c[0] - c[2] * from_centre[1],
@@ -582,8 +582,9 @@ struct EdgeMoves {
     /// With the weak symmetry, the rotation moment's share per cell, moved through the
     /// symmetry rows instead of a load.
     asym_share: Option<f64>,
-    /// The load of the other moments on the cells (`edge_load`), None when it has none.
-    load: Option<Vec<EdgeLoad>>,
+    /// The load of the other moments on the cells (`edge_load`; the first `cells`), None
+    /// when it has none.
+    load: Option<[EdgeLoad; 2]>,
 }
 
 /// The moves of edge `e` = (a, b) for potentials `p` (flow.rs): None when p_a = p_b.
@@ -1084,14 +1085,19 @@ type EdgeLoad = (u32, [f64; 3], [f64; 2]);
 /// straight cells are not: far from the origin they differ from the rule by ~1e-10 relative,
 /// and the Hertz Q1 halves moved to (1e4, −3e4) kept patch defects of 1e-9 and lost their
 /// guarantee (BENCHMARKS.md, session 37).
-fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Option<Vec<EdgeLoad>> {
+///
+/// An edge has at most two cells: the points and the result stay on the stack (this runs for
+/// every edge of every flow pass, and the lists were freed by the serial step).
+fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Option<[EdgeLoad; 2]> {
     let mesh = ctx.mesh;
-    let rule = triangle_rule_cached(4);
+    let rule = triangle_rule_cached(EDGE_LOAD_DEGREE);
+    debug_assert_eq!(rule.points.len(), EDGE_LOAD_POINTS);
     // Positions relative to the first cell's anchor x_r: differences of nearby points.
     let reference = anchor(mesh, *cells.first()? as usize);
     let (mut area, mut first) = (0.0, [0.0; 2]);
-    let mut pts: Vec<([f64; 2], f64)> = Vec::new();
-    for &t in cells {
+    let mut pts = [([0.0; 2], 0.0); 2 * EDGE_LOAD_POINTS];
+    let mut npts = 0;
+    for &t in &cells[..cells.len().min(2)] {
         let t = t as usize;
         let fam = mesh.family[t];
         let x = mesh.coords(t);
@@ -1102,7 +1108,8 @@ fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Opt
             area += w;
             first[0] += w * p[0];
             first[1] += w * p[1];
-            pts.push((p, w));
+            pts[npts] = (p, w);
+            npts += 1;
         }
     }
     if area <= 0.0 {
@@ -1110,7 +1117,7 @@ fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Opt
     }
     // x̄ − x_r.
     let centre = [first[0] / area, first[1] / area];
-    let second: f64 = pts
+    let second: f64 = pts[..npts]
         .iter()
         .map(|(p, w)| w * ((p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)))
         .sum();
@@ -1124,20 +1131,21 @@ fn edge_load(ctx: &Context, cells: &[u32], y: [f64; 3], origin: [f64; 2]) -> Opt
         reference[1] - origin[1] + centre[1],
     ];
     let c2 = (y[2] + area * from_origin[1] * c0 - area * from_origin[0] * c1) / second;
-    Some(
-        cells
-            .iter()
-            .map(|&t| {
-                let xt = anchor(mesh, t as usize);
-                let d = [
-                    xt[0] - reference[0] - centre[0],
-                    xt[1] - reference[1] - centre[1],
-                ];
-                (t, [c0, c1, c2], d)
-            })
-            .collect(),
-    )
+    let mut out = [(0, [0.0; 3], [0.0; 2]); 2];
+    for (o, &t) in out.iter_mut().zip(cells) {
+        let xt = anchor(mesh, t as usize);
+        let d = [
+            xt[0] - reference[0] - centre[0],
+            xt[1] - reference[1] - centre[1],
+        ];
+        *o = (t, [c0, c1, c2], d);
+    }
+    Some(out)
 }
+
+/// The degree of `edge_load`'s rule, and its number of points.
+const EDGE_LOAD_DEGREE: usize = 4;
+const EDGE_LOAD_POINTS: usize = 6;
 
 /// One patch: unknowns, local maps, quadrature, QP (module doc).
 fn solve_patch(
@@ -1154,6 +1162,9 @@ fn solve_patch(
     // patches became infeasible). They only lower the price of the symmetric correction, so a
     // patch that cannot meet them (a corner cell with all three fluxes fixed has two free
     // values) is solved without them.
+    if balance_only && is_linear(ctx, setup.condition, cells) {
+        return linear_balance(ctx, u, setup, vertex, cells, extra);
+    }
     let higher = setup.weak_symmetry && setup.order.k() >= 2;
     let out = solve_patch_rows(ctx, u, setup, vertex, cells, extra, balance_only, higher);
     if higher && out.higher_defect > PATCH_DEFECT_RELATIVE {
@@ -1183,7 +1194,6 @@ fn solve_patch_rows(
     let (x0, length) = (setup.origin, setup.length);
     let mesh = ctx.mesh;
     let topo = ctx.topo;
-    let el = ctx.elastic;
     let scene = ctx.scene;
     let ne = order.edge_dofs();
     let bern = bernstein(order);
@@ -1238,22 +1248,10 @@ fn solve_patch_rows(
                 (true, Condition::Free) => {}
                 (true, Condition::Neumann(b)) => {
                     if radial {
-                        let BoundaryKind::Neumann { traction } = &scene.boundaries[b].kind else {
-                            unreachable!("a Neumann edge has a traction")
-                        };
-                        // ψ_a along the owner's local edge l (from local vertex l to l + 1).
-                        let a_first = mesh.nodes(t)[l] == vertex;
-                        let local_points: Vec<f64> =
-                            order.edge_points().iter().map(|&s| owner_s(s)).collect();
-                        for (r, row) in vals.iter_mut().enumerate() {
-                            let p = project_points(order.k(), &local_points, |s| {
-                                let (sp, _, len, _) =
-                                    sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, s);
-                                let psi = if a_first { 1.0 - s } else { s };
-                                psi * traction[r].eval(sp.x[0], sp.x[1], 0.0) * len
-                            });
-                            for (slot, v) in row.iter_mut().enumerate().take(ne) {
-                                v.c = sgn * p[slot];
+                        let p = neumann_constants(ctx, order, t, l, vertex, b);
+                        for (row, pr) in vals.iter_mut().zip(p) {
+                            for (v, pv) in row.iter_mut().zip(pr).take(ne) {
+                                v.c = pv;
                             }
                         }
                     }
@@ -1371,7 +1369,6 @@ fn solve_patch_rows(
     // Equality rows B (flat, row-major, nvar columns) and their right-hand sides d.
     let mut rows: Vec<f64> = Vec::new();
     let mut rhs: Vec<f64> = Vec::new();
-    let f_expr = scene.body_force.as_ref();
     let mut parts: Vec<CellPart> = Vec::with_capacity(cells.len());
     // The full local matrices of curved cells, sized when one is met (zeroing them for every
     // patch was ~2 % of the patch stage's instructions).
@@ -1428,13 +1425,7 @@ fn solve_patch_rows(
             .find(|tb| tb.family == fam && tb.degree == degree);
         let mut bloc = [0.0; 2 * MAX_RT_DOFS];
         // The symmetry row ∫_T (τ_xy − τ_yx) exactly (J is linear in ξ; condense.rs).
-        let jv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
-            .map(|xi| sub_jacobian(fam, &x[..fam.nodes()], sh, 0, xi).matrix);
-        for i in 0..nloc {
-            let [a, b] = condense::mean_value(re, jv, i);
-            part.srow[i] = b;
-            part.srow[nloc + i] = -a;
-        }
+        part.srow = symmetry_row(re, fam, &x[..fam.nodes()], sh);
         // The P_1 symmetry rows only enter the solve (a balance-only patch has none to meet).
         if higher && !quick {
             part.shi = higher_symmetry_rows(re, order, fam, &x[..fam.nodes()], sh);
@@ -1451,38 +1442,20 @@ fn solve_patch_rows(
             };
             let jac = sp.jac;
             let w = wq * jac.det;
-            let gu = sp.gradient_at(nodes, u);
-            let sym = 0.5 * (gu[0][1] + gu[1][0]);
-            let eps = [gu[0][0], sym, sym, gu[1][1]];
-            let sig = el.stress(eps);
             let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
-            let glam = [[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]];
             let psi = lam[j];
-            let gpsi = jac.physical_gradient(glam[j]);
-            let f = match f_expr {
-                None => [0.0; 2],
-                Some(fe) => [
-                    fe[0].eval(sp.x[0], sp.x[1], 0.0),
-                    fe[1].eval(sp.x[0], sp.x[1], 0.0),
-                ],
-            };
-            let mut target = [
-                -psi * f[0] + sig[0] * gpsi[0] + sig[1] * gpsi[1],
-                -psi * f[1] + sig[2] * gpsi[0] + sig[3] * gpsi[1],
-            ];
-            if let Some(ex) = extra.get(ci) {
-                let d = sp.from(xt);
-                target[0] += ex[0] - ex[2] * d[1];
-                target[1] += ex[1] + ex[2] * d[0];
-            }
-            // The divergence rows' right-hand sides (reference moments: the rows are
-            // (div τ, q)_T = ∫_T̂ div̂ τ̂ q̂, condense.rs).
-            let qv = condense::test_monomials(xi);
-            for r in 0..2 {
-                for q in 0..nq {
-                    part.g[r][q] += w * target[r] * qv[q];
-                }
-            }
+            add_load_moments(
+                ctx,
+                u,
+                nodes,
+                &sp,
+                wq,
+                xi,
+                j,
+                extra.get(ci),
+                xt,
+                &mut part.g,
+            );
             if quick {
                 continue;
             }
@@ -1577,41 +1550,17 @@ fn solve_patch_rows(
         }
         // The local constant c₀ = T ē₀ + t₀ (Neumann fluxes through T, D_I⁺g) and
         // c = T E y + c₀ with y the patch unknowns (condense.rs).
-        for r in 0..2 {
-            for e in 0..nedge {
-                part.c0[r * nloc + e] = part.emap[r][e].constant(&edge_vals, r);
-            }
-            let ec = &part.c0[r * nloc..r * nloc + nedge];
-            let mut interior = [0.0; MAX_RT_DOFS];
-            for (i, ci) in interior.iter_mut().enumerate().take(re.nint) {
-                let mut v: f64 = (0..nq).map(|q| re.pinv[i * nq + q] * part.g[r][q]).sum();
-                let row = &re.transform[(nedge + i) * nred..(nedge + i) * nred + nedge];
-                for (t, c) in row.iter().zip(ec) {
-                    v += t * c;
+        let ec: [[f64; MAX_EDGE_DOFS]; 2] = std::array::from_fn(|r| {
+            std::array::from_fn(|e| {
+                if e < nedge {
+                    part.emap[r][e].constant(&edge_vals, r)
+                } else {
+                    0.0
                 }
-                *ci = v;
-            }
-            part.c0[r * nloc + nedge..(r + 1) * nloc].copy_from_slice(&interior[..re.nint]);
-        }
-        {
-            let (p0, p1, p2) = (x[0], x[1], x[2]);
-            let (dx1, dx2) = (
-                [p1[0] - p0[0], p1[1] - p0[1]],
-                [p2[0] - p0[0], p2[1] - p0[1]],
-            );
-            part.rigid = [
-                [[1.0, 0.0, 0.0], [0.0; 3]],
-                [[0.0; 3], [1.0, 0.0, 0.0]],
-                [
-                    [
-                        -(p0[1] - x0[1]) / length,
-                        -dx1[1] / length,
-                        -dx2[1] / length,
-                    ],
-                    [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
-                ],
-            ];
-        }
+            })
+        });
+        part.c0 = cell_constant(re, &ec, &part.g);
+        part.rigid = rigid_moments(&x, x0, length);
         if quick {
             parts.push(part);
             continue;
@@ -1883,34 +1832,16 @@ fn solve_patch_rows(
         } else {
             full(&legal)
         };
-        let mut res = [[0.0; MAX_MOMENTS]; 2];
-        for r in 0..2 {
-            for q in 0..nq {
-                let (mut dc, mut abs) = (0.0, 0.0);
-                for i in 0..nloc {
-                    let v = re.div[q * nloc + i] * c[r][i];
-                    dc += v;
-                    abs += v.abs();
-                }
-                res[r][q] = dc - part.g[r][q];
-                worst = worst.max(res[r][q].abs());
-                scale = scale.max(abs + part.g[r][q].abs());
-            }
-        }
-        for ((bi, bs), ci) in balance
-            .iter_mut()
-            .zip(balance_scale.iter_mut())
-            .zip(&part.rigid)
-        {
-            for (r, cr) in ci.iter().enumerate() {
-                for (q, &cq) in cr.iter().enumerate() {
-                    if cq != 0.0 {
-                        *bi -= cq * res[r][q];
-                        *bs += (cq * res[r][q]).abs();
-                    }
-                }
-            }
-        }
+        let (cell_worst, cell_scale) = add_cell_balance(
+            re,
+            &c,
+            &part.g,
+            &part.rigid,
+            &mut balance,
+            &mut balance_scale,
+        );
+        worst = worst.max(cell_worst);
+        scale = scale.max(cell_scale);
         if weak_symmetry {
             let (value, terms) = row_value(&part.srow, &c, nloc);
             let (sres, abs) = (value - part.asym, terms + part.asym.abs());
@@ -1959,6 +1890,309 @@ fn solve_patch_rows(
         dropped_higher: false,
         balance,
     }
+}
+
+/// The rigid-motion balance of a patch whose balance does not depend on its unknowns (no
+/// contact edge, straight cells: module doc), without setting up its problem: the moments of
+/// the residual of c₀, the stress it would have with every unknown 0. The sums and their
+/// order are `solve_patch_rows`'s with `balance_only`, so the result is the same to the bit;
+/// without its edge expressions, cell records and matrices this took ~half the time (the
+/// balance pass of the 1M P2 bench).
+fn linear_balance(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    setup: &PatchSetup,
+    vertex: u32,
+    cells: &[(u32, u8)],
+    extra: &[Extra],
+) -> PatchOut {
+    let (mesh, topo, order) = (ctx.mesh, ctx.topo, setup.order);
+    let re = condense::reference(order);
+    let (ne, nloc) = (order.edge_dofs(), re.nloc);
+    let (mut balance, mut balance_scale) = ([0.0; 3], [0.0f64; 3]);
+    // The patch's unknowns, as `solve_patch_rows` counts them: the values of the interior
+    // radial edges (two cells each) and of the Dirichlet edges, and the free interior values.
+    let (mut radial_sides, mut dirichlet) = (0usize, 0usize);
+    for (ci, &(t, j)) in cells.iter().enumerate() {
+        let (t, j) = (t as usize, j as usize);
+        let fam = mesh.family[t];
+        let x = mesh.coords(t);
+        let nodes = mesh.nodes(t);
+        // The local edge constants: ψ_a's Neumann traction on the radial boundary edges.
+        let mut ec = [[0.0; MAX_EDGE_DOFS]; 2];
+        for l in 0..3 {
+            let e = topo.cell_edges[t][l];
+            let [ea, eb] = topo.edges[e as usize];
+            let radial = ea == vertex || eb == vertex;
+            let boundary = topo.edge_cells[e as usize][1] == NONE;
+            let mut p = [[0.0; 3]; 2];
+            match boundary.then(|| setup.condition[e as usize]).flatten() {
+                None if radial => radial_sides += 1,
+                Some(Condition::Dirichlet(_)) => dirichlet += 1,
+                Some(Condition::Neumann(b)) if radial => {
+                    p = neumann_constants(ctx, order, t, l, vertex, b);
+                }
+                _ => {}
+            }
+            let forward = topo.cell_edge_sign[t][l] > 0;
+            for (loc, slot, sign) in rt::local_to_global_edge(order, l, forward) {
+                for r in 0..2 {
+                    ec[r][loc] = sign * p[r][slot];
+                }
+            }
+        }
+        let degree = cell_rule_degree(Shape::Affine, order.k(), mesh.degree, setup.varying_force);
+        let rule = triangle_rule_cached(degree);
+        let table = setup
+            .tables
+            .iter()
+            .find(|tb| tb.family == fam && tb.degree == degree);
+        let xt = anchor(mesh, t);
+        let mut g = [[0.0; MAX_MOMENTS]; 2];
+        for (pi, (&xi, &wq)) in rule.points.iter().zip(&rule.weights).enumerate() {
+            let sp = match table {
+                Some(tb) => tb.geometry.point(&x[..fam.nodes()], pi),
+                None => sub_point(fam, &x[..fam.nodes()], Shape::Affine, 0, xi),
+            };
+            add_load_moments(ctx, u, nodes, &sp, wq, xi, j, extra.get(ci), xt, &mut g);
+        }
+        let c0 = cell_constant(re, &ec, &g);
+        let mut c = [[0.0; MAX_RT_DOFS]; 2];
+        for r in 0..2 {
+            c[r][..nloc].copy_from_slice(&c0[r * nloc..(r + 1) * nloc]);
+        }
+        let rigid = rigid_moments(&x, setup.origin, setup.length);
+        add_cell_balance(re, &c, &g, &rigid, &mut balance, &mut balance_scale);
+        if setup.weak_symmetry {
+            let srow = symmetry_row(re, fam, &x[..fam.nodes()], Shape::Affine);
+            let asym = extra.get(ci).map_or(0.0, |e| e[3]);
+            let (value, terms) = row_value(&srow, &c, nloc);
+            let (sres, abs) = (value - asym, terms + asym.abs());
+            balance[2] += sres / setup.length;
+            balance_scale[2] += abs / setup.length;
+        }
+    }
+    let balance_scale = balance_scale.iter().fold(0.0f64, |m, v| m.max(*v));
+    PatchOut {
+        solved: false,
+        balance_scale,
+        cells: Vec::new(),
+        unknowns: 2 * ne * (radial_sides / 2 + dirichlet) + 2 * re.nz * cells.len(),
+        active: 0,
+        settled: true,
+        feasible: true,
+        defect: relative_balance(balance, balance_scale),
+        higher_defect: 0.0,
+        dropped_higher: false,
+        balance,
+    }
+}
+
+/// Whether a patch's balance does not depend on its unknowns: no contact edge among its cells'
+/// edges (the only source of sign bounds and vanishing variables) and straight cells.
+fn is_linear(ctx: &Context, condition: &[Option<Condition>], cells: &[(u32, u8)]) -> bool {
+    cells.iter().all(|&(t, _)| {
+        let t = t as usize;
+        ctx.mesh.shape[t] == Shape::Affine
+            && ctx.topo.cell_edges[t][..3].iter().all(|&e| {
+                !matches!(condition[e as usize], Some(Condition::Contact(_)))
+                    || ctx.topo.edge_cells[e as usize][1] != NONE
+            })
+    })
+}
+
+/// ψ_a's Neumann flux on the radial boundary edge `l` of cell `t` (its only cell), per row
+/// and edge slot in the edge's global orientation: the projection of ψ_a t |e| onto the
+/// slots' polynomials (`project_points`), signed by the cell's orientation of the edge.
+fn neumann_constants(
+    ctx: &Context,
+    order: RtOrder,
+    t: usize,
+    l: usize,
+    vertex: u32,
+    boundary: usize,
+) -> [[f64; 3]; 2] {
+    let mesh = ctx.mesh;
+    let BoundaryKind::Neumann { traction } = &ctx.scene.boundaries[boundary].kind else {
+        unreachable!("a Neumann edge has a traction")
+    };
+    let (fam, x, sh) = (mesh.family[t], mesh.coords(t), mesh.shape[t]);
+    let forward = ctx.topo.cell_edge_sign[t][l] > 0;
+    let sgn = if forward { 1.0 } else { -1.0 };
+    // ψ_a along the owner's local edge l (from local vertex l to l + 1).
+    let a_first = mesh.nodes(t)[l] == vertex;
+    let local_points: Vec<f64> = order
+        .edge_points()
+        .iter()
+        .map(|&s| if forward { s } else { 1.0 - s })
+        .collect();
+    let mut out = [[0.0; 3]; 2];
+    for (r, row) in out.iter_mut().enumerate() {
+        let p = project_points(order.k(), &local_points, |s| {
+            let (sp, _, len, _) = sub_edge_point(fam, &x[..fam.nodes()], sh, 0, l, s);
+            let psi = if a_first { 1.0 - s } else { s };
+            psi * traction[r].eval(sp.x[0], sp.x[1], 0.0) * len
+        });
+        for (v, pv) in row.iter_mut().zip(p).take(order.edge_dofs()) {
+            *v = sgn * pv;
+        }
+    }
+    out
+}
+
+/// Adds one point's share of a patch cell's divergence-row right-hand sides, ∫ target_r q̂
+/// (reference moments: the rows are (div τ, q)_T = ∫_T̂ div̂ τ̂ q̂, condense.rs), with weight
+/// `wq` det J. The target is ψ_a's share of the equilibrium, −ψ_a f + Cε(u_h)∇ψ_a (ψ_a = λ_j),
+/// plus the flows' load c_x, c_y, c_rot (x − x_T)^⊥ about the cell's anchor x_T (design §5.10).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_load_moments(
+    ctx: &Context,
+    u: &[[f64; 2]],
+    nodes: &[u32],
+    sp: &SubPoint,
+    wq: f64,
+    xi: [f64; 2],
+    j: usize,
+    extra: Option<&Extra>,
+    xt: [f64; 2],
+    g: &mut [[f64; MAX_MOMENTS]; 2],
+) {
+    let w = wq * sp.jac.det;
+    let gu = sp.gradient_at(nodes, u);
+    let sym = 0.5 * (gu[0][1] + gu[1][0]);
+    let eps = [gu[0][0], sym, sym, gu[1][1]];
+    let sig = ctx.elastic.stress(eps);
+    let lam = [1.0 - xi[0] - xi[1], xi[0], xi[1]];
+    let glam = [[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]];
+    let psi = lam[j];
+    let gpsi = sp.jac.physical_gradient(glam[j]);
+    let f = match ctx.scene.body_force.as_ref() {
+        None => [0.0; 2],
+        Some(fe) => [
+            fe[0].eval(sp.x[0], sp.x[1], 0.0),
+            fe[1].eval(sp.x[0], sp.x[1], 0.0),
+        ],
+    };
+    let mut target = [
+        -psi * f[0] + sig[0] * gpsi[0] + sig[1] * gpsi[1],
+        -psi * f[1] + sig[2] * gpsi[0] + sig[3] * gpsi[1],
+    ];
+    if let Some(ex) = extra {
+        let d = sp.from(xt);
+        target[0] += ex[0] - ex[2] * d[1];
+        target[1] += ex[1] + ex[2] * d[0];
+    }
+    let qv = condense::test_monomials(xi);
+    for r in 0..2 {
+        for (gq, qq) in g[r].iter_mut().zip(&qv) {
+            *gq += w * target[r] * qq;
+        }
+    }
+}
+
+/// The weak-symmetry row ∫_T (τ_xy − τ_yx) over the local functions (row 0: τ_xy at i, row 1:
+/// −τ_yx at nloc + i), exact: J is linear in ξ (condense.rs's mean values at the vertices).
+fn symmetry_row(
+    re: &condense::Reference,
+    fam: Family,
+    x: &[[f64; 2]],
+    sh: Shape,
+) -> [f64; 2 * MAX_RT_DOFS] {
+    let jv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]].map(|xi| sub_jacobian(fam, x, sh, 0, xi).matrix);
+    let mut row = [0.0; 2 * MAX_RT_DOFS];
+    for i in 0..re.nloc {
+        let [a, b] = condense::mean_value(re, jv, i);
+        row[i] = b;
+        row[re.nloc + i] = -a;
+    }
+    row
+}
+
+/// The local constant c₀ = T ē₀ + t₀ of a patch cell (condense.rs), local index r·nloc + i:
+/// the edge constants `ec` (row r, local edge DOF), and the interior values D_I⁺g plus the
+/// edge constants' share through T.
+fn cell_constant(
+    re: &condense::Reference,
+    ec: &[[f64; MAX_EDGE_DOFS]; 2],
+    g: &[[f64; MAX_MOMENTS]; 2],
+) -> [f64; 2 * MAX_RT_DOFS] {
+    let (nloc, nedge, nred, nq) = (re.nloc, re.nedge, re.nred, re.nq);
+    let mut c0 = [0.0; 2 * MAX_RT_DOFS];
+    for r in 0..2 {
+        c0[r * nloc..r * nloc + nedge].copy_from_slice(&ec[r][..nedge]);
+        for i in 0..re.nint {
+            let mut v: f64 = (0..nq).map(|q| re.pinv[i * nq + q] * g[r][q]).sum();
+            let row = &re.transform[(nedge + i) * nred..(nedge + i) * nred + nedge];
+            for (t, c) in row.iter().zip(&ec[r][..nedge]) {
+                v += t * c;
+            }
+            c0[r * nloc + nedge + i] = v;
+        }
+    }
+    c0
+}
+
+/// e_x, e_y and (x − x₀)^⊥/L of a straight cell with vertices x[0..3] in the moments 1, ξ, η
+/// per row (the flows' rigid motions, `reconstruct`).
+fn rigid_moments(x: &[[f64; 2]], x0: [f64; 2], length: f64) -> [[[f64; 3]; 2]; 3] {
+    let (p0, p1, p2) = (x[0], x[1], x[2]);
+    let (dx1, dx2) = (
+        [p1[0] - p0[0], p1[1] - p0[1]],
+        [p2[0] - p0[0], p2[1] - p0[1]],
+    );
+    [
+        [[1.0, 0.0, 0.0], [0.0; 3]],
+        [[0.0; 3], [1.0, 0.0, 0.0]],
+        [
+            [
+                -(p0[1] - x0[1]) / length,
+                -dx1[1] / length,
+                -dx2[1] / length,
+            ],
+            [(p0[0] - x0[0]) / length, dx1[0] / length, dx2[0] / length],
+        ],
+    ]
+}
+
+/// Adds a cell's share of its patch's rigid-motion balance, −Σ rigid_i · (D c − g) (flow.rs's
+/// e_a), and of the magnitudes of its terms. Returns the cell's largest |D c − g| and the
+/// largest Σ|terms| + |g| (the patch defect's measure).
+fn add_cell_balance(
+    re: &condense::Reference,
+    c: &[[f64; MAX_RT_DOFS]; 2],
+    g: &[[f64; MAX_MOMENTS]; 2],
+    rigid: &[[[f64; 3]; 2]; 3],
+    balance: &mut [f64; 3],
+    balance_scale: &mut [f64; 3],
+) -> (f64, f64) {
+    let (nloc, nq) = (re.nloc, re.nq);
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    let mut res = [[0.0; MAX_MOMENTS]; 2];
+    for r in 0..2 {
+        for q in 0..nq {
+            let (mut dc, mut abs) = (0.0, 0.0);
+            for i in 0..nloc {
+                let v = re.div[q * nloc + i] * c[r][i];
+                dc += v;
+                abs += v.abs();
+            }
+            res[r][q] = dc - g[r][q];
+            worst = worst.max(res[r][q].abs());
+            scale = scale.max(abs + g[r][q].abs());
+        }
+    }
+    for ((bi, bs), ci) in balance.iter_mut().zip(balance_scale.iter_mut()).zip(rigid) {
+        for (r, cr) in ci.iter().enumerate() {
+            for (q, &cq) in cr.iter().enumerate() {
+                if cq != 0.0 {
+                    *bi -= cq * res[r][q];
+                    *bs += (cq * res[r][q]).abs();
+                }
+            }
+        }
+    }
+    (worst, scale)
 }
 
 /// σ_T = Cε(u_h) of every cell at its centroid (constant on P1 cells), once for the rotation
@@ -2662,6 +2896,14 @@ mod tests {
                 mesh.len()
             );
         }
+    }
+
+    #[test]
+    fn edge_load_rule_has_the_points_its_buffer_holds() {
+        assert_eq!(
+            triangle_rule_cached(EDGE_LOAD_DEGREE).points.len(),
+            EDGE_LOAD_POINTS
+        );
     }
 
     #[test]
