@@ -48,18 +48,12 @@ impl RtStress {
         jac_sub: &Jacobian,
         reference: &([[f64; 2]; MAX_RT_DOFS], [f64; MAX_RT_DOFS]),
     ) -> ([f64; 4], [f64; 2]) {
-        let (v, d) = rt::piola_of(reference, jac_sub);
-        let c = &self.coefficients[sub];
-        let mut s = [0.0; 4];
-        let mut div = [0.0; 2];
-        for i in 0..self.order.dofs() {
-            for r in 0..2 {
-                s[2 * r] += c[r][i] * v[i][0];
-                s[2 * r + 1] += c[r][i] * v[i][1];
-                div[r] += c[r][i] * d[i];
-            }
-        }
-        (s, div)
+        rt::piola_combination(
+            reference,
+            jac_sub,
+            &self.coefficients[sub],
+            self.order.dofs(),
+        )
     }
 
     /// σ and div σ at the image of parent reference point `xi` of cell `t`: the

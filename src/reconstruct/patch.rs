@@ -369,8 +369,8 @@ pub fn reconstruct(
         stages.lap("flow potentials");
         // The moments of this pass' loads per patch: −(p_a − p_b) on a, + on b (flow.rs).
         // Each edge's load and the patch slots of its cells are found in parallel, a chunk of
-        // edges at a time (the quadrature and the slot searches were this serial step: 2.3 s
-        // of a 1M P2 run), and added serially, in the edges' order.
+        // edges at a time (the quadrature and the slot searches were a serial step: 2.3 s of a
+        // 1M P2 run), and added in the edges' order (`add_moves`).
         let mut shift = vec![[0.0; 3]; npts];
         for start in (0..topo.edges.len()).step_by(LOAD_CHUNK) {
             let end = (start + LOAD_CHUNK).min(topo.edges.len());
@@ -390,45 +390,7 @@ pub fn reconstruct(
                 })
                 .collect();
             stages.lap("flow loads");
-            for mv in loads {
-                let [a, b] = topo.edges[mv.edge];
-                // With the weak symmetry a rotation moment moves through the symmetry rows:
-                // patch a's cells of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so
-                // every cell's sum stays 0 and div σ_h is untouched (no body load to carry).
-                let slots = &mv.slots[..mv.cells];
-                if let Some(share) = mv.asym_share {
-                    for slots in slots {
-                        for (slot, sign) in slots.iter().zip([1.0, -1.0]) {
-                            if let Some(slot) = slot {
-                                extra[*slot as usize][3] += sign * share;
-                            }
-                        }
-                    }
-                }
-                let Some(h) = mv.load else {
-                    continue;
-                };
-                for (&(_, c, from_centre), slots) in h[..mv.cells].iter().zip(slots) {
-                    // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
-                    let c = [
-                        c[0] - c[2] * from_centre[1],
-                        c[1] + c[2] * from_centre[0],
-                        c[2],
-                    ];
-                    for (slot, sign) in slots.iter().zip([-1.0, 1.0]) {
-                        let Some(slot) = slot else {
-                            continue;
-                        };
-                        for (e, ci) in extra[*slot as usize].iter_mut().zip(c) {
-                            *e += sign * ci;
-                        }
-                    }
-                }
-                for (c, mc) in mv.moment.iter().enumerate() {
-                    shift[a as usize][c] -= mc;
-                    shift[b as usize][c] += mc;
-                }
-            }
+            add_moves(&loads, &topo.edges, &mut extra, &mut shift);
             stages.lap("flow loads added");
         }
         // A patch that only gave its balance: that balance is linear in the load, and the
@@ -641,6 +603,53 @@ fn edge_moves(
         asym_share,
         load,
     })
+}
+
+/// Adds a chunk of edge moves to the patch loads `extra` and the balance shifts, in the edges'
+/// order (so the sums do not depend on the thread count). Serial: split over vertex ranges,
+/// each range scanning the chunk's moves, it was no faster at 1M P2 cells (0.9 s against
+/// 0.8–1.2 s; the writes are scattered reads of memory) and 2.5× slower at 100k.
+/// With the weak symmetry a rotation moment moves through the symmetry rows: patch a's cells
+/// of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so every cell's sum stays 0 and div σ_h
+/// is untouched (no body load to carry).
+fn add_moves(moves: &[EdgeMoves], edges: &[[u32; 2]], extra: &mut [Extra], shift: &mut [[f64; 3]]) {
+    for mv in moves {
+        let [a, b] = edges[mv.edge];
+        let slots = &mv.slots[..mv.cells];
+        if let Some(share) = mv.asym_share {
+            for slots in slots {
+                for (slot, sign) in slots.iter().zip([1.0, -1.0]) {
+                    if let Some(slot) = slot {
+                        extra[*slot as usize][3] += sign * share;
+                    }
+                }
+            }
+        }
+        let Some(h) = &mv.load else {
+            continue;
+        };
+        for (&(_, c, from_centre), slots) in h[..mv.cells].iter().zip(slots) {
+            // c₂(x − x̄)^⊥ = c₂(x − x_T)^⊥ + c₂(x_T − x̄)^⊥ about the cell's anchor x_T.
+            let c = [
+                c[0] - c[2] * from_centre[1],
+                c[1] + c[2] * from_centre[0],
+                c[2],
+            ];
+            // Taken from a, given to b.
+            for (slot, sign) in slots.iter().zip([-1.0, 1.0]) {
+                let Some(slot) = slot else {
+                    continue;
+                };
+                for (e, ci) in extra[*slot as usize].iter_mut().zip(c) {
+                    *e += sign * ci;
+                }
+            }
+        }
+        for (c, mc) in mv.moment.iter().enumerate() {
+            shift[a as usize][c] -= mc;
+            shift[b as usize][c] += mc;
+        }
+    }
 }
 
 /// Wall time per named step, summed over repeated laps of one name.
@@ -1600,6 +1609,8 @@ fn solve_patch_rows(
                 }
             }
         } else {
+            // Accumulated below (an affine cell's form overwrites every entry instead).
+            mred.iter_mut().for_each(|v| *v = 0.0);
             for a in 0..nl {
                 let ma = &mloc[a * nl..(a + 1) * nl];
                 for r2 in 0..2 {
@@ -1670,13 +1681,25 @@ fn solve_patch_rows(
                 (&kernel_terms[a][..], 1.0)
             }
         });
-        for a in 0..nr {
-            let (ta, sa) = rmap[a];
-            for (c, &mv) in mred[a * nr..(a + 1) * nr].iter().enumerate() {
+        // Only the reduced unknowns that reach patch unknowns (12 of 20 in an interior P2
+        // cell: the others are constants or eliminated) take part in the scatter, in the same
+        // order as over all of them (this loop ran 57k instructions per patch over all pairs).
+        let mut reach: [(usize, &[(u32, f64)], f64); 2 * MAX_REDUCED] =
+            [(0, &[][..], 1.0); 2 * MAX_REDUCED];
+        let mut nreach = 0;
+        for (a, &(ta, sa)) in rmap.iter().enumerate().take(nr) {
+            if !ta.is_empty() {
+                reach[nreach] = (a, ta, sa);
+                nreach += 1;
+            }
+        }
+        for &(a, ta, sa) in &reach[..nreach] {
+            let mred_a = &mred[a * nr..(a + 1) * nr];
+            for &(c, tc, sc) in &reach[..nreach] {
+                let mv = mred_a[c];
                 if mv == 0.0 {
                     continue;
                 }
-                let (tc, sc) = rmap[c];
                 for &(va, ca) in ta {
                     let ca = sa * ca;
                     let mrow = &mut m[va as usize * nvar..(va as usize + 1) * nvar];
@@ -1689,7 +1712,6 @@ fn solve_patch_rows(
                 bvec[va as usize] += (sa * ca) * bred[a];
             }
         }
-        mred.iter_mut().for_each(|v| *v = 0.0);
         let mut push_row = |g: &[f64], d: f64| {
             let start = rows.len();
             rows.resize(start + nvar, 0.0);
