@@ -1684,8 +1684,7 @@ fn solve_patch_rows(
         // Only the reduced unknowns that reach patch unknowns (12 of 20 in an interior P2
         // cell: the others are constants or eliminated) take part in the scatter, in the same
         // order as over all of them (this loop ran 57k instructions per patch over all pairs).
-        let mut reach: [(usize, &[(u32, f64)], f64); 2 * MAX_REDUCED] =
-            [(0, &[][..], 1.0); 2 * MAX_REDUCED];
+        let mut reach: [Reach; 2 * MAX_REDUCED] = [(0, &[][..], 1.0); 2 * MAX_REDUCED];
         let mut nreach = 0;
         for (a, &(ta, sa)) in rmap.iter().enumerate().take(nr) {
             if !ta.is_empty() {
@@ -2194,8 +2193,8 @@ fn add_cell_balance(
     for r in 0..2 {
         for q in 0..nq {
             let (mut dc, mut abs) = (0.0, 0.0);
-            for i in 0..nloc {
-                let v = re.div[q * nloc + i] * c[r][i];
+            for (d, ci) in re.div[q * nloc..(q + 1) * nloc].iter().zip(&c[r]) {
+                let v = d * ci;
                 dc += v;
                 abs += v.abs();
             }
@@ -2511,6 +2510,9 @@ impl EdgeRef {
         sign * lin.c
     }
 }
+
+/// A reduced local unknown that reaches patch unknowns: its index, their terms and its sign.
+type Reach<'a> = (usize, &'a [(u32, f64)], f64);
 
 /// One cell of a patch, kept from assembly to the recovery of its coefficients.
 struct CellPart {
