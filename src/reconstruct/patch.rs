@@ -1702,7 +1702,8 @@ fn solve_patch_rows(
                 for &(va, ca) in ta {
                     let ca = sa * ca;
                     let mrow = &mut m[va as usize * nvar..(va as usize + 1) * nvar];
-                    for &(vc, cc) in tc {
+                    // The lower triangle only: `qp::solve` reads nothing else.
+                    for &(vc, cc) in tc.iter().filter(|&&(vc, _)| vc <= va) {
                         mrow[vc as usize] += ca * (sc * cc) * mv;
                     }
                 }
