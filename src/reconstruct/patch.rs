@@ -884,7 +884,7 @@ impl PatchOut {
 
 struct PatchOut {
     /// False when only the balance was computed (`solve_patch`'s `balance_only` on a patch
-    /// whose balance does not depend on its unknowns): `cells` is empty.
+    /// whose balance does not depend on its unknowns, `linear_balance`): `cells` is empty.
     solved: bool,
     cells: Vec<(u32, [[f64; MAX_RT_DOFS]; 2])>,
     unknowns: usize,
@@ -1175,11 +1175,11 @@ fn solve_patch(
         return linear_balance(ctx, u, setup, vertex, cells, extra);
     }
     let higher = setup.weak_symmetry && setup.order.k() >= 2;
-    let out = solve_patch_rows(ctx, u, setup, vertex, cells, extra, balance_only, higher);
+    let out = solve_patch_rows(ctx, u, setup, vertex, cells, extra, higher);
     if higher && out.higher_defect > PATCH_DEFECT_RELATIVE {
         PatchOut {
             dropped_higher: true,
-            ..solve_patch_rows(ctx, u, setup, vertex, cells, extra, balance_only, false)
+            ..solve_patch_rows(ctx, u, setup, vertex, cells, extra, false)
         }
     } else {
         out
@@ -1196,7 +1196,6 @@ fn solve_patch_rows(
     vertex: u32,
     cells: &[(u32, u8)],
     extra: &[Extra],
-    balance_only: bool,
     higher: bool,
 ) -> PatchOut {
     let (order, condition, weak_symmetry) = (setup.order, setup.condition, setup.weak_symmetry);
@@ -1317,14 +1316,6 @@ fn solve_patch_rows(
             edge_vals.push(vals);
         }
     }
-    // A patch without inequalities on straight cells: its rigid-motion balance does not depend
-    // on the unknowns (module doc of `reconstruct`), so it can be had without the solve.
-    let linear = bounded.is_empty()
-        && zero_vars.is_empty()
-        && cells
-            .iter()
-            .all(|&(t, _)| mesh.shape[t as usize] == Shape::Affine);
-    let quick = balance_only && linear;
     // Interior values: condensed (condense.rs), dim ker D_I free values per cell and row.
     let re = condense::reference(order);
     let (nloc, nedge, nq, nz, nred) = (re.nloc, re.nedge, re.nq, re.nz, re.nred);
@@ -1346,7 +1337,7 @@ fn solve_patch_rows(
     for &(t, _) in cells {
         let t = t as usize;
         let fam = mesh.family[t];
-        let jac = (!quick && mesh.shape[t] == Shape::Affine).then(|| {
+        let jac = (mesh.shape[t] == Shape::Affine).then(|| {
             sub_jacobian(
                 fam,
                 &mesh.coords(t)[..fam.nodes()],
@@ -1368,13 +1359,8 @@ fn solve_patch_rows(
     }
     let (nl, nr) = (2 * nloc, 2 * nred);
 
-    // A balance-only patch assembles no matrix.
-    let mut m = if quick {
-        Vec::new()
-    } else {
-        vec![0.0; nvar * nvar]
-    };
-    let mut bvec = if quick { Vec::new() } else { vec![0.0; nvar] };
+    let mut m = vec![0.0; nvar * nvar];
+    let mut bvec = vec![0.0; nvar];
     // Equality rows B (flat, row-major, nvar columns) and their right-hand sides d.
     let mut rows: Vec<f64> = Vec::new();
     let mut rhs: Vec<f64> = Vec::new();
@@ -1383,11 +1369,7 @@ fn solve_patch_rows(
     // patch was ~2 % of the patch stage's instructions).
     let mut mloc = Vec::new();
     let mut mt = Vec::new();
-    let mut mred = if quick {
-        Vec::new()
-    } else {
-        vec![0.0; nr * nr]
-    };
+    let mut mred = vec![0.0; nr * nr];
     for (ci, &(t, j)) in cells.iter().enumerate() {
         let t = t as usize;
         let j = j as usize;
@@ -1435,8 +1417,7 @@ fn solve_patch_rows(
         let mut bloc = [0.0; 2 * MAX_RT_DOFS];
         // The symmetry row ∫_T (τ_xy − τ_yx) exactly (J is linear in ξ; condense.rs).
         part.srow = symmetry_row(re, fam, &x[..fam.nodes()], sh);
-        // The P_1 symmetry rows only enter the solve (a balance-only patch has none to meet).
-        if higher && !quick {
+        if higher {
             part.shi = higher_symmetry_rows(re, order, fam, &x[..fam.nodes()], sh);
         }
         if !affine {
@@ -1465,9 +1446,6 @@ fn solve_patch_rows(
                 xt,
                 &mut part.g,
             );
-            if quick {
-                continue;
-            }
             let (v, _) = match table {
                 Some(tb) => rt::piola_of(&tb.rt[pi], &jac),
                 None => rt::piola(order, &jac, xi),
@@ -1570,10 +1548,6 @@ fn solve_patch_rows(
         });
         part.c0 = cell_constant(re, &ec, &part.g);
         part.rigid = rigid_moments(&x, x0, length);
-        if quick {
-            parts.push(part);
-            continue;
-        }
         // Reduced local problem: Tᵀ M T and Tᵀ(b − M c₀), T block-diagonal over the rows; with
         // the prior stress c_p on the cell, Tᵀ(b − M(c₀ + c_p)).
         let mut shifted = [0.0; 2 * MAX_RT_DOFS];
@@ -1782,17 +1756,7 @@ fn solve_patch_rows(
         settled,
         feasible,
         defect: _,
-    } = if quick {
-        qp::QpResult {
-            x: vec![0.0; nvar],
-            active: 0,
-            settled: true,
-            feasible: true,
-            defect: 0.0,
-        }
-    } else {
-        qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded)
-    };
+    } = qp::solve(nvar, &m, &bvec, &rows, &rhs, hard_rows, &bounded);
     // The rigid-motion moments of the constraint residual (flow.rs's e_a): with the rows
     // (div τ − target, q)_T and ∫_T as τ, e_i = ∫(target − div τ)·ρ_i, plus ∫ as τ/L for the
     // rotation (the divergence theorem: ∫ div τ·ρ₃ = ∫_∂ τn·ρ₃ + ∫ as τ).
@@ -1844,16 +1808,7 @@ fn solve_patch_rows(
             }
             c
         };
-        // Without a solve every unknown is 0, and c = c₀ + T·0 is c₀ itself.
-        let c = if quick {
-            let mut c = [[0.0; MAX_RT_DOFS]; 2];
-            for r in 0..2 {
-                c[r][..nloc].copy_from_slice(&part.c0[r * nloc..(r + 1) * nloc]);
-            }
-            c
-        } else {
-            full(&legal)
-        };
+        let c = full(&legal);
         let (cell_worst, cell_scale) = add_cell_balance(
             re,
             &c,
@@ -1879,23 +1834,13 @@ fn solve_patch_rows(
             balance[2] += sres / length;
             balance_scale[2] += abs / length;
         }
-        if !quick {
-            // `legal` is `x` itself without variables that must vanish.
-            out_cells.push((part.t, if zero_vars.is_empty() { c } else { full(&x) }));
-        }
+        // `legal` is `x` itself without variables that must vanish.
+        out_cells.push((part.t, if zero_vars.is_empty() { c } else { full(&x) }));
     }
-    // Without the solve, the defect the solve would leave is the balance relative to its
-    // terms (a balanced patch of this kind is solvable: design §5.10).
     let balance_scale = balance_scale.iter().fold(0.0f64, |m, v| m.max(*v));
-    let defect = if quick {
-        relative_balance(balance, balance_scale)
-    } else if scale > 0.0 {
-        worst / scale
-    } else {
-        0.0
-    };
+    let defect = if scale > 0.0 { worst / scale } else { 0.0 };
     PatchOut {
-        solved: !quick,
+        solved: true,
         balance_scale,
         cells: out_cells,
         unknowns: nvar,
@@ -1903,8 +1848,7 @@ fn solve_patch_rows(
         settled,
         feasible,
         defect,
-        // A balance-only patch has no solution yet: its rows are met in the final solve.
-        higher_defect: if !quick && higher_scale > 0.0 {
+        higher_defect: if higher_scale > 0.0 {
             higher_worst / higher_scale
         } else {
             0.0
@@ -1917,9 +1861,11 @@ fn solve_patch_rows(
 /// The rigid-motion balance of a patch whose balance does not depend on its unknowns (no
 /// contact edge, straight cells: module doc), without setting up its problem: the moments of
 /// the residual of c₀, the stress it would have with every unknown 0. The sums and their
-/// order are `solve_patch_rows`'s with `balance_only`, so the result is the same to the bit;
-/// without its edge expressions, cell records and matrices this took ~half the time (the
-/// balance pass of the 1M P2 bench).
+/// order as the general code's (`solve_patch_rows`) before the solve, so c = c₀ + T·0 gives the
+/// bits that code gave with the unknowns at zero; without its edge expressions, cell records and
+/// matrices this took ~⅓ of the time (the balance pass of the 1M P2 bench). Its defect is the
+/// balance relative to its terms: the defect a solve would leave (a balanced patch of this kind
+/// is solvable: design §5.10).
 fn linear_balance(
     ctx: &Context,
     u: &[[f64; 2]],
@@ -1948,10 +1894,10 @@ fn linear_balance(
             let radial = ea == vertex || eb == vertex;
             let boundary = topo.edge_cells[e as usize][1] == NONE;
             let mut p = [[0.0; 3]; 2];
-            match boundary.then(|| setup.condition[e as usize]).flatten() {
-                None if radial => radial_sides += 1,
-                Some(Condition::Dirichlet(_)) => dirichlet += 1,
-                Some(Condition::Neumann(b)) if radial => {
+            match (boundary, setup.condition[e as usize]) {
+                (false, _) if radial => radial_sides += 1,
+                (true, Some(Condition::Dirichlet(_))) => dirichlet += 1,
+                (true, Some(Condition::Neumann(b))) if radial => {
                     p = neumann_constants(ctx, order, t, l, vertex, b);
                 }
                 _ => {}
@@ -2919,6 +2865,85 @@ mod tests {
                 quadratic * 2 > mesh.len(),
                 "{case}: {quadratic} of {} cells",
                 mesh.len()
+            );
+        }
+    }
+
+    /// A linear patch's balance does not depend on its stress (design §5.10, "Patches solved
+    /// once"): `linear_balance` (c₀, the unknowns at zero) against the residual moments the full
+    /// solve leaves, on every such patch of the manufactured files away from Dirichlet edges
+    /// (whose fluxes are free), with flow loads on every cell.
+    #[test]
+    fn linear_balance_is_the_balance_a_solve_leaves() {
+        for case in [
+            "manufactured_frictionless_p2_n08",
+            "manufactured_frictionless_p1_n08",
+        ] {
+            let fx = crate::problem::fixture(case);
+            let ctx = fx.context(crate::read::scene::Norm::Energy);
+            let u = fx.displacement();
+            let mesh = ctx.mesh;
+            let order = RtOrder::Rt2;
+            let mut condition = vec![None; ctx.topo.edges.len()];
+            for be in ctx.edges {
+                condition[be.edge as usize] = Some(be.condition);
+            }
+            let varying_force = ctx
+                .scene
+                .body_force
+                .as_ref()
+                .is_some_and(|f| !(f[0].is_constant() && f[1].is_constant()));
+            let tables = RuleTable::build(mesh, order, varying_force);
+            let recovered = recovered_strain(mesh, &u);
+            let setup = PatchSetup {
+                prior: None,
+                form: condense::objective_form(&ctx.elastic, true),
+                tables: &tables,
+                varying_force,
+                order,
+                condition: &condition,
+                weak_symmetry: true,
+                origin: [0.4, 0.6],
+                length: 1.5,
+                recovered: &recovered,
+            };
+            let (count, members) = vertex_patches(mesh);
+            let (mut checked, mut neumann) = (0, 0);
+            for v in 0..mesh.points.len() {
+                let cells = &members[count[v] as usize..count[v + 1] as usize];
+                if cells.is_empty()
+                    || !is_linear(&ctx, &condition, cells)
+                    || touches_dirichlet(&ctx, &condition, cells)
+                {
+                    continue;
+                }
+                let extra: Vec<Extra> = (0..cells.len())
+                    .map(|k| [1e-3 * k as f64, -2e-3, 5e-4 * (k % 3) as f64, 1e-4])
+                    .collect();
+                let quick = linear_balance(&ctx, &u, &setup, v as u32, cells, &extra);
+                let solved = solve_patch_rows(&ctx, &u, &setup, v as u32, cells, &extra, true);
+                assert!(!quick.solved && solved.solved);
+                let scale = quick.balance_scale.max(solved.balance_scale);
+                for (i, (a, b)) in quick.balance.iter().zip(&solved.balance).enumerate() {
+                    assert!(
+                        (a - b).abs() <= 1e-10 * scale,
+                        "{case} vertex {v} moment {i}: {a:e} vs {b:e} (scale {scale:e})"
+                    );
+                }
+                assert!(quick.balance.iter().any(|b| b.abs() > 1e-6 * scale));
+                // Counted as without the P_1 rows' elimination of the free interior values.
+                let plain = solve_patch_rows(&ctx, &u, &setup, v as u32, cells, &extra, false);
+                assert_eq!(quick.unknowns, plain.unknowns, "{case} vertex {v}");
+                checked += 1;
+                neumann += usize::from(cells.iter().any(|&(t, _)| {
+                    ctx.topo.cell_edges[t as usize][..3]
+                        .iter()
+                        .any(|&e| matches!(condition[e as usize], Some(Condition::Neumann(_))))
+                }));
+            }
+            assert!(
+                checked > 40 && neumann > 4,
+                "{case}: {checked} patches, {neumann} Neumann"
             );
         }
     }
