@@ -606,9 +606,9 @@ fn edge_moves(
 }
 
 /// Adds a chunk of edge moves to the patch loads `extra` and the balance shifts, in the edges'
-/// order (so the sums do not depend on the thread count). Serial: split over vertex ranges,
-/// each range scanning the chunk's moves, it was no faster at 1M P2 cells (0.9 s against
-/// 0.8–1.2 s; the writes are scattered reads of memory) and 2.5× slower at 100k.
+/// order (so the sums do not depend on the thread count). Serial on purpose: a split over
+/// vertex ranges, each range scanning the chunk's moves in parallel, was no faster at 1M P2
+/// cells (0.9 s against 0.8–1.2 s: scattered accesses to memory) and 2.5× slower at 100k.
 /// With the weak symmetry a rotation moment moves through the symmetry rows: patch a's cells
 /// of E get ∫_T as τ_a = +y₂/|cells|, b's the opposite, so every cell's sum stays 0 and div σ_h
 /// is untouched (no body load to carry).
@@ -1166,14 +1166,15 @@ fn solve_patch(
     extra: &[Extra],
     balance_only: bool,
 ) -> PatchOut {
+    // A patch whose balance does not depend on its unknowns only gives it in the passes.
+    if balance_only && is_linear(ctx, setup.condition, cells) {
+        return linear_balance(ctx, u, setup, vertex, cells, extra);
+    }
     // The P_1 moments of the weak symmetry (design §5.10): with RT_2, not with RT_1 (too few
     // free values per cell) and not P_2 (RT_2 × P_2 × P_2 is not stable: the manufactured
     // patches became infeasible). They only lower the price of the symmetric correction, so a
     // patch that cannot meet them (a corner cell with all three fluxes fixed has two free
     // values) is solved without them.
-    if balance_only && is_linear(ctx, setup.condition, cells) {
-        return linear_balance(ctx, u, setup, vertex, cells, extra);
-    }
     let higher = setup.weak_symmetry && setup.order.k() >= 2;
     let out = solve_patch_rows(ctx, u, setup, vertex, cells, extra, higher);
     if higher && out.higher_defect > PATCH_DEFECT_RELATIVE {
