@@ -593,6 +593,28 @@ impl TriangleTable {
     pub fn point(&self, x: &[[f64; 2]], p: usize) -> SubPoint {
         triangle_point(self.family, x, self.points[p], &self.shapes[p])
     }
+
+    /// The reference point p.
+    #[inline]
+    pub fn xi(&self, p: usize) -> [f64; 2] {
+        self.points[p]
+    }
+
+    /// Σ_i `u[nodes[i]]` ⊗ ∇̂φ_i(ξ_p) (row a: ∂u_a/∂ξ, ∂u_a/∂η): on a straight cell, where J is
+    /// one matrix, ∇u = this · J⁻¹ without the physical gradient of every shape function.
+    #[inline]
+    pub fn reference_gradient(&self, p: usize, nodes: &[u32], u: &[[f64; 2]]) -> [[f64; 2]; 2] {
+        let g = &self.shapes[p].1;
+        let mut r = [[0.0; 2]; 2];
+        for (i, &n) in nodes.iter().enumerate() {
+            let v = u[n as usize];
+            for a in 0..2 {
+                r[a][0] += v[a] * g[i][0];
+                r[a][1] += v[a] * g[i][1];
+            }
+        }
+        r
+    }
 }
 
 /// The geometry of a triangle cell (its own sub-triangle) at ξ from the family's shape values
