@@ -741,13 +741,7 @@ pub fn bound_with(
                 let tabulated = |p: usize, xi: [f64; 2]| match (one_jacobian, split_table) {
                     (Some(jac), Some(st)) => {
                         let g = st.geometry.reference_gradient(p, nodes, v);
-                        let m = &jac.inverse;
-                        let gu = g.map(|ga| {
-                            [
-                                ga[0] * m[0][0] + ga[1] * m[1][0],
-                                ga[0] * m[0][1] + ga[1] * m[1][1],
-                            ]
-                        });
+                        let gu = g.map(|ga| jac.physical_gradient(ga));
                         let s = rt.at_reference(first, &jac, &st.rt[p]).0;
                         at_parts(st.geometry.xi(p), gu, s)
                     }
