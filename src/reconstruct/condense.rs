@@ -392,11 +392,17 @@ fn affine_coefficients(jac: &Jacobian, a: &[[f64; 4]; 4]) -> [[[f64; 4]; 2]; 2] 
 /// (the compliance A, or [`objective_form`]), from the reduced Gram matrices: (TᵀM_aT)^{rr'} =
 /// Σ_ab C^{rr'}_ab Tᵀ G^{ab} T (module doc, "affine compliance matrix"). With a = A the same
 /// numbers as Tᵀ [`affine_mass`] T without the (2·nloc)² matrix.
+///
+/// The rows of `mred` whose bit is set in `skip` (bit r·nred + y) are set to zero instead: a
+/// patch cell's reduced unknowns with a fixed value (the zero flux of its outer edge, 6 of 20
+/// in an interior P2 cell) enter only through Tᵀ M_a c₀, so their rows are never read. The
+/// other entries are the same numbers either way.
 pub fn affine_reduced_form(
     re: &Reference,
     jac: &Jacobian,
     a: &[[f64; 4]; 4],
     c0: &[f64],
+    skip: u32,
     mred: &mut [f64],
     tmc0: &mut [f64],
 ) {
@@ -404,9 +410,9 @@ pub fn affine_reduced_form(
     // The sizes of RT_1 and RT_2 known at compile time: the loops unroll and vectorise (this
     // ran ~14k instructions per cell of a P2 patch with run-time sizes). Same sums, same order.
     match (re.nloc, re.nred) {
-        (15, 10) => reduced_form_fixed::<15, 10>(re, &coef, c0, mred, tmc0),
-        (8, 6) => reduced_form_fixed::<8, 6>(re, &coef, c0, mred, tmc0),
-        _ => reduced_form_any(re, &coef, c0, mred, tmc0),
+        (15, 10) => reduced_form_fixed::<15, 10>(re, &coef, c0, skip, mred, tmc0),
+        (8, 6) => reduced_form_fixed::<8, 6>(re, &coef, c0, skip, mred, tmc0),
+        _ => reduced_form_any(re, &coef, c0, skip, mred, tmc0),
     }
 }
 
@@ -415,6 +421,7 @@ fn reduced_form_any(
     re: &Reference,
     coef: &[[[f64; 4]; 2]; 2],
     c0: &[f64],
+    skip: u32,
     mred: &mut [f64],
     tmc0: &mut [f64],
 ) {
@@ -445,6 +452,10 @@ fn reduced_form_any(
             let c = coef[r][r2];
             for y in 0..nred {
                 let out = &mut mred[(r * nred + y) * nr + r2 * nred..][..nred];
+                if skip >> (r * nred + y) & 1 == 1 {
+                    out.iter_mut().for_each(|o| *o = 0.0);
+                    continue;
+                }
                 let g = [
                     &re.gram_red[0][y * nred..(y + 1) * nred],
                     &re.gram_red[1][y * nred..(y + 1) * nred],
@@ -466,6 +477,7 @@ fn reduced_form_fixed<const NLOC: usize, const NRED: usize>(
     re: &Reference,
     coef: &[[[f64; 4]; 2]; 2],
     c0: &[f64],
+    skip: u32,
     mred: &mut [f64],
     tmc0: &mut [f64],
 ) {
@@ -501,10 +513,14 @@ fn reduced_form_fixed<const NLOC: usize, const NRED: usize>(
         for r2 in 0..2 {
             let c = coef[r][r2];
             for y in 0..NRED {
-                let g = [0, 1, 2, 3].map(|ab| fixed::<NRED>(&re.gram_red[ab][y * NRED..]));
                 let out: &mut [f64; NRED] = (&mut mred[(r * NRED + y) * nr + r2 * NRED..][..NRED])
                     .try_into()
                     .expect("NRED values");
+                if skip >> (r * NRED + y) & 1 == 1 {
+                    *out = [0.0; NRED];
+                    continue;
+                }
+                let g = [0, 1, 2, 3].map(|ab| fixed::<NRED>(&re.gram_red[ab][y * NRED..]));
                 for y2 in 0..NRED {
                     out[y2] = c[0] * g[0][y2] + c[1] * g[1][y2] + c[2] * g[2][y2] + c[3] * g[3][y2];
                 }
@@ -673,8 +689,8 @@ mod tests {
             let coef = affine_coefficients(&jac, &form);
             let (mut m1, mut b1) = (vec![0.0; nr * nr], vec![0.0; nr]);
             let (mut m2, mut b2) = (vec![0.0; nr * nr], vec![0.0; nr]);
-            affine_reduced_form(re, &jac, &form, &c0, &mut m1, &mut b1);
-            reduced_form_any(re, &coef, &c0, &mut m2, &mut b2);
+            affine_reduced_form(re, &jac, &form, &c0, 0, &mut m1, &mut b1);
+            reduced_form_any(re, &coef, &c0, 0, &mut m2, &mut b2);
             assert!(m1.iter().zip(&m2).all(|(a, b)| a.to_bits() == b.to_bits()));
             assert!(b1.iter().zip(&b2).all(|(a, b)| a.to_bits() == b.to_bits()));
         }
@@ -721,7 +737,15 @@ mod tests {
             let nr = 2 * nred;
             let c0: Vec<f64> = (0..nl).map(|i| (i as f64 * 0.71 - 0.3).sin()).collect();
             let (mut mred, mut tmc0) = (vec![0.0; nr * nr], vec![0.0; nr]);
-            affine_reduced_form(re, &jac, &compliance_matrix(&el), &c0, &mut mred, &mut tmc0);
+            affine_reduced_form(
+                re,
+                &jac,
+                &compliance_matrix(&el),
+                &c0,
+                0,
+                &mut mred,
+                &mut tmc0,
+            );
             let t = |a: usize, y: usize| {
                 // T block-diagonal over the rows: local a = r·nloc + i, reduced y = r'·nred + j.
                 if a / nloc == y / nred {

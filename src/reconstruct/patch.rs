@@ -1567,11 +1567,19 @@ fn solve_patch_rows(
             // centroid: the mass matrix only chooses among the equilibrated stresses.
             let jac = centre_jac[ci].expect("a straight cell of a solved patch");
             let mut tmc0 = [0.0; 2 * MAX_REDUCED];
+            // Edge values without patch unknowns: their rows of Tᵀ M T are never read (the
+            // scatter and `eliminate_kernel` use the rows of the other values only).
+            let skip = (0..nr).fold(0u32, |bits, a| {
+                let (r, y) = (a / nred, a % nred);
+                let fixed = y < nedge && part.emap[r][y].of(&edge_vals, r).0.terms().is_empty();
+                bits | u32::from(fixed) << a
+            });
             condense::affine_reduced_form(
                 re,
                 &jac,
                 &setup.form,
                 &shifted[..nl],
+                skip,
                 &mut mred,
                 &mut tmc0,
             );

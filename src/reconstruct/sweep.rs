@@ -244,7 +244,15 @@ fn solve(
         }
         let mut tmc = [0.0; 2 * condense::MAX_REDUCED];
         if affine {
-            condense::affine_reduced_form(re, &jac, form, &cflat, &mut mred[..nr * nr], &mut tmc);
+            condense::affine_reduced_form(
+                re,
+                &jac,
+                form,
+                &cflat,
+                0,
+                &mut mred[..nr * nr],
+                &mut tmc,
+            );
         } else {
             curved_reduced(
                 re,
