@@ -519,14 +519,25 @@ pub fn correct_affine(
                 + lm[1][c][1] * h[1][1]
         })
     };
-    // h_s = Σ_a x_(a s) ∇̂N_a at point p.
-    let grad_sum = |x: &[f64], p: usize| -> [[f64; 2]; 2] {
+    // The values x_(a s) of each sub-triangle's nodes side by side, gathered once per pass:
+    // `grad_sum` then reads two contiguous arrays (it indexed x through the node list at
+    // each of the split rule's points, 17 % of the bound's instructions).
+    let gather = |x: &[f64]| -> [Vec<[f64; 2]>; 3] {
+        std::array::from_fn(|i| {
+            re.sub_nodes[i]
+                .iter()
+                .map(|&a| [x[2 * a], x[2 * a + 1]])
+                .collect()
+        })
+    };
+    // h_s = Σ_a x_(a s) ∇̂N_a at point p (the same sums, in the order of the nodes).
+    let grad_sum = |xs: &[Vec<[f64; 2]>; 3], p: usize| -> [[f64; 2]; 2] {
         let i = re.points[p].2;
         let mut h = [[0.0; 2]; 2];
-        for (&a, g) in re.sub_nodes[i].iter().zip(&re.grads[p * ps..(p + 1) * ps]) {
-            for (s, hs) in h.iter_mut().enumerate() {
-                hs[0] += x[2 * a + s] * g[0];
-                hs[1] += x[2 * a + s] * g[1];
+        for (xa, g) in xs[i].iter().zip(&re.grads[p * ps..(p + 1) * ps]) {
+            for (hs, &xas) in h.iter_mut().zip(xa) {
+                hs[0] += xas * g[0];
+                hs[1] += xas * g[1];
             }
         }
         h
@@ -562,9 +573,10 @@ pub fn correct_affine(
     if nk > 0 {
         // r = −∫ A(τ − Cε + Curl φ_p) : Curl φ_a (= b − M x_p, by exact quadrature).
         let mut r = vec![0.0; n];
+        let xs = gather(&x);
         for (p, &(_, wr, i)) in re.points.iter().enumerate() {
             let (tau, ce) = vals[p];
-            let cp = curl_of(grad_sum(&x, p));
+            let cp = curl_of(grad_sum(&xs, p));
             let base: [f64; 4] = std::array::from_fn(|c| tau[c] - ce[c] + cp[c]);
             let ab = el.compliance(base);
             let w = wr * det;
@@ -608,9 +620,10 @@ pub fn correct_affine(
     }
     // Second pass: the corrected field's Prager–Synge density and asymmetry, pointwise.
     let (mut ps2, mut asym_after) = (0.0, 0.0);
+    let xs = gather(&x);
     for (p, &(_, wr, _)) in re.points.iter().enumerate() {
         let (tau, ce) = vals[p];
-        let cp = curl_of(grad_sum(&x, p));
+        let cp = curl_of(grad_sum(&xs, p));
         let t: [f64; 4] = std::array::from_fn(|c| tau[c] + cp[c]);
         let w = wr * det;
         ps2 += w * ps_density(el, t, ce);
