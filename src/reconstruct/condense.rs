@@ -299,6 +299,12 @@ fn symmetry_row_fixed<const NLOC: usize, const NRED: usize>(
             if sc == 0.0 {
                 continue;
             }
+            // T's edge rows are unit rows (module doc): their other products are exact zeros,
+            // which leave the sums as they are.
+            if c < re.nedge {
+                out[c] += sc;
+                continue;
+            }
             let tc: &[f64; NRED] = re.transform[c * NRED..(c + 1) * NRED]
                 .try_into()
                 .expect("NRED values");

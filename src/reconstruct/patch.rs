@@ -1583,11 +1583,15 @@ fn solve_patch_rows(
                 &mut mred,
                 &mut tmc0,
             );
+            // Tᵀ b: T's edge rows are unit rows (condense.rs), so the sum over the local
+            // functions starts at the edge value's own term (the other products of those rows
+            // are exact zeros) and runs over the interior functions.
             for r in 0..2 {
                 for y in 0..nred {
-                    let tb: f64 = (0..nloc)
-                        .map(|c| re.transform[c * nred + y] * bloc[r * nloc + c])
-                        .sum();
+                    let start = if y < nedge { bloc[r * nloc + y] } else { -0.0 };
+                    let tb = (nedge..nloc).fold(start, |s, c| {
+                        s + re.transform[c * nred + y] * bloc[r * nloc + c]
+                    });
                     bred[r * nred + y] = tb - tmc0[r * nred + y];
                 }
             }
@@ -1807,12 +1811,17 @@ fn solve_patch_rows(
                     };
                 }
             }
+            // c = c₀ + T y; T's edge rows are unit rows (condense.rs).
             for r in 0..2 {
                 for (i, ci) in c[r].iter_mut().enumerate().take(nloc) {
                     *ci = part.c0[r * nloc + i]
-                        + (0..nred)
-                            .map(|yy| re.transform[i * nred + yy] * y[r][yy])
-                            .sum::<f64>();
+                        + if i < nedge {
+                            y[r][i]
+                        } else {
+                            (0..nred)
+                                .map(|yy| re.transform[i * nred + yy] * y[r][yy])
+                                .sum::<f64>()
+                        };
                 }
             }
             c
