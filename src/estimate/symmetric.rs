@@ -519,22 +519,26 @@ pub fn correct_affine(
                 + lm[1][c][1] * h[1][1]
         })
     };
-    // The values x_(a s) of each sub-triangle's nodes side by side, gathered once per pass:
-    // `grad_sum` then reads two contiguous arrays (it indexed x through the node list at
-    // each of the split rule's points, 17 % of the bound's instructions).
-    let gather = |x: &[f64]| -> [Vec<[f64; 2]>; 3] {
-        std::array::from_fn(|i| {
-            re.sub_nodes[i]
-                .iter()
-                .map(|&a| [x[2 * a], x[2 * a + 1]])
-                .collect()
-        })
+    // The values x_(a s) of each sub-triangle's nodes side by side (sub-triangle i at i·ps),
+    // gathered once per pass into one buffer: `grad_sum` then reads two contiguous arrays (it
+    // indexed x through the node list at each of the split rule's points, 17 % of the bound's
+    // instructions).
+    let mut xs = vec![[0.0; 2]; 3 * ps];
+    let gather = |x: &[f64], xs: &mut [[f64; 2]]| {
+        for (i, sub) in re.sub_nodes.iter().enumerate() {
+            for (xa, &a) in xs[i * ps..(i + 1) * ps].iter_mut().zip(sub) {
+                *xa = [x[2 * a], x[2 * a + 1]];
+            }
+        }
     };
     // h_s = Σ_a x_(a s) ∇̂N_a at point p (the same sums, in the order of the nodes).
-    let grad_sum = |xs: &[Vec<[f64; 2]>; 3], p: usize| -> [[f64; 2]; 2] {
+    let grad_sum = |xs: &[[f64; 2]], p: usize| -> [[f64; 2]; 2] {
         let i = re.points[p].2;
         let mut h = [[0.0; 2]; 2];
-        for (xa, g) in xs[i].iter().zip(&re.grads[p * ps..(p + 1) * ps]) {
+        for (xa, g) in xs[i * ps..(i + 1) * ps]
+            .iter()
+            .zip(&re.grads[p * ps..(p + 1) * ps])
+        {
             for (hs, &xas) in h.iter_mut().zip(xa) {
                 hs[0] += xas * g[0];
                 hs[1] += xas * g[1];
@@ -573,7 +577,7 @@ pub fn correct_affine(
     if nk > 0 {
         // r = −∫ A(τ − Cε + Curl φ_p) : Curl φ_a (= b − M x_p, by exact quadrature).
         let mut r = vec![0.0; n];
-        let xs = gather(&x);
+        gather(&x, &mut xs);
         for (p, &(_, wr, i)) in re.points.iter().enumerate() {
             let (tau, ce) = vals[p];
             let cp = curl_of(grad_sum(&xs, p));
@@ -620,7 +624,7 @@ pub fn correct_affine(
     }
     // Second pass: the corrected field's Prager–Synge density and asymmetry, pointwise.
     let (mut ps2, mut asym_after) = (0.0, 0.0);
-    let xs = gather(&x);
+    gather(&x, &mut xs);
     for (p, &(_, wr, _)) in re.points.iter().enumerate() {
         let (tau, ce) = vals[p];
         let cp = curl_of(grad_sum(&xs, p));
