@@ -24,6 +24,19 @@ pub const DEGENERATE_AREA_RELATIVE: f64 = 1e-12;
 /// every h ≥ 1e-3 R. 1e-6 separates the two by two orders of magnitude on either side.
 pub const CURVED_RELATIVE: f64 = 1e-6;
 
+/// A boundary vertex within this times |b − a| of a boundary edge a–b's curve, and this far
+/// inside its parameter range, lies on it (`topology`'s hanging-node test). The same separation
+/// as [`CURVED_RELATIVE`]: coordinates written with 7 to 12 significant digits put a vertex
+/// that is on the edge at most ~1e-8 |b − a| off it on meshes with h ≥ 1e-4 × their size, while
+/// a vertex that is not on it is a cell height away (the test also needs a chain of boundary
+/// edges from a to b through such vertices, which a conforming mesh only has in a cell of zero
+/// area).
+pub const HANGING_NODE_RELATIVE: f64 = 1e-6;
+
+/// Longest chain of boundary edges followed along one edge in the hanging-node test: an edge
+/// of a non-conforming mesh is split into 2^levels pieces (one or two levels in practice).
+pub const HANGING_CHAIN: usize = 64;
+
 /// Node copies of an exploded mesh closer than this times the shortest edge of the cells that
 /// hold them are one node: writers copy coordinates bit-exactly or to ~1e-12 (ASCII), while
 /// distinct nodes are at least an edge apart.

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::mesh::{Dataset, Mesh, NONE, list_indices};
+use crate::tolerance::{HANGING_CHAIN, HANGING_NODE_RELATIVE};
 
 /// Edges of a mesh of triangles and quadrilaterals and their incidences.
 #[derive(Clone, Debug)]
@@ -176,6 +177,30 @@ pub fn build(data: &Dataset) -> Result<Topology> {
             non_conforming.len()
         )));
     }
+    let hanging = hanging_nodes(mesh, &edges, &edge_cells, &cell_edges, &boundary_edges);
+    if let Some(&(t, v, [a, b])) = hanging.first() {
+        let mut cells: Vec<usize> = hanging
+            .iter()
+            .map(|h| mesh.file_cell[h.0] as usize)
+            .collect();
+        cells.sort_unstable();
+        cells.dedup();
+        let p = |i: u32| {
+            let [x, y] = mesh.points[i as usize];
+            format!("({x}, {y})")
+        };
+        return Err(err(format!(
+            "hanging nodes: the mesh is not conforming (cells {} ({} in all) have an edge that \
+             their neighbours meet in pieces; the first: the vertex at {} lies inside the edge \
+             {}–{} of cell {}); write the solution on a conforming mesh",
+            list_indices(&cells),
+            cells.len(),
+            p(v),
+            p(a),
+            p(b),
+            mesh.file_cell[t],
+        )));
+    }
     // Line cells: each must be an edge of the mesh.
     let mut line_edge = Vec::with_capacity(mesh.lines.len());
     let mut dangling = Vec::new();
@@ -221,6 +246,124 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         boundary_edges,
         line_edge,
     })
+}
+
+/// The hanging nodes of a non-conforming mesh (adaptive refinement that keeps "hanging"
+/// vertices, as MFEM's and deal.II's non-conforming meshes do): a boundary edge a–b of cell t
+/// whose ends are joined by a chain of other boundary edges a–v₁–…–b through vertices on the
+/// edge's curve. Such an edge is no boundary at all: the cells on both sides of it meet along
+/// it without sharing its nodes, and taken as a boundary it would be a traction-free crack
+/// (a guaranteed bound for another domain). The chain must reach b: a crack whose two faces
+/// are meshed differently also has vertices of one face inside edges of the other, but its
+/// faces share no node except at the tip. Returns (t, v₁, [a, b]) per such edge.
+///
+/// The edge's curve is x(s) = a + s(b − a) + 4s(1 − s)(m − (a + b)/2) (its mid node m, or the
+/// chord); a vertex w lies on it when the nearest point x(s*) (Newton on (x(s) − w)·x'(s) = 0
+/// from the chord's projection) is within [`HANGING_NODE_RELATIVE`] |b − a| of w, with s* inside
+/// (that fraction away from the ends).
+fn hanging_nodes(
+    mesh: &Mesh,
+    edges: &[[u32; 2]],
+    edge_cells: &[[u32; 2]],
+    cell_edges: &[[u32; 4]],
+    boundary: &[u32],
+) -> Vec<(usize, u32, [u32; 2])> {
+    // (vertex, boundary edge), sorted by vertex: the boundary edges at each vertex.
+    let mut at: Vec<(u32, u32)> = boundary
+        .iter()
+        .flat_map(|&e| edges[e as usize].map(|v| (v, e)))
+        .collect();
+    at.sort_unstable();
+    let around = |v: u32| {
+        let start = at.partition_point(|&(w, _)| w < v);
+        at[start..]
+            .iter()
+            .take_while(move |&&(w, _)| w == v)
+            .map(|&(_, e)| e)
+    };
+    let other = |e: u32, v: u32| {
+        let [p, q] = edges[e as usize];
+        if p == v { q } else { p }
+    };
+    let mut found = Vec::new();
+    for &e in boundary {
+        let t = edge_cells[e as usize][0] as usize;
+        let Some(k) = cell_edges[t].iter().position(|&x| x == e) else {
+            continue;
+        };
+        let [a, b, m] = mesh.edge(t, k);
+        let pt = |i: u32| mesh.points[i as usize];
+        let (pa, pb) = (pt(a), pt(b));
+        let chord = [pb[0] - pa[0], pb[1] - pa[1]];
+        let len2 = chord[0] * chord[0] + chord[1] * chord[1];
+        if !(len2 > 0.0 && len2.is_finite()) {
+            continue;
+        }
+        let bow = if m == NONE {
+            [0.0; 2]
+        } else {
+            let pm = pt(m);
+            [pm[0] - 0.5 * (pa[0] + pb[0]), pm[1] - 0.5 * (pa[1] + pb[1])]
+        };
+        let on_edge = |w: [f64; 2]| -> bool {
+            let x = |s: f64| {
+                let c = 4.0 * s * (1.0 - s);
+                [
+                    pa[0] + s * chord[0] + c * bow[0],
+                    pa[1] + s * chord[1] + c * bow[1],
+                ]
+            };
+            let dx = |s: f64| {
+                let c = 4.0 * (1.0 - 2.0 * s);
+                [chord[0] + c * bow[0], chord[1] + c * bow[1]]
+            };
+            let mut s = ((w[0] - pa[0]) * chord[0] + (w[1] - pa[1]) * chord[1]) / len2;
+            for _ in 0..8 {
+                let (p, d) = (x(s), dx(s));
+                let r = [p[0] - w[0], p[1] - w[1]];
+                let g = r[0] * d[0] + r[1] * d[1];
+                let h = d[0] * d[0] + d[1] * d[1] - 8.0 * (r[0] * bow[0] + r[1] * bow[1]);
+                // A NaN or non-positive curvature term: keep the last s (its distance decides).
+                if h.is_nan() || h <= 0.0 {
+                    break;
+                }
+                s = (s - g / h).clamp(-1.0, 2.0);
+            }
+            let p = x(s);
+            let dist2 = (p[0] - w[0]).powi(2) + (p[1] - w[1]).powi(2);
+            let tol = HANGING_NODE_RELATIVE;
+            s > tol && s < 1.0 - tol && dist2 <= tol * tol * len2
+        };
+        // Walk from a along boundary edges through vertices on the edge, towards b.
+        let (mut cur, mut came, mut first) = (a, e, None);
+        for _ in 0..HANGING_CHAIN {
+            let mut next = None;
+            for f in around(cur) {
+                if f == came {
+                    continue;
+                }
+                let w = other(f, cur);
+                if w == b && first.is_some() {
+                    next = Some((f, w));
+                    break;
+                }
+                if w != a && w != b && on_edge(pt(w)) {
+                    next = Some((f, w));
+                    break;
+                }
+            }
+            let Some((f, w)) = next else {
+                break;
+            };
+            if w == b {
+                found.push((t, first.expect("a vertex on the edge"), [a, b]));
+                break;
+            }
+            first.get_or_insert(w);
+            (cur, came) = (w, f);
+        }
+    }
+    found
 }
 
 /// Line cells lying on interior edges (file cell indices): legal, but not boundary data.
@@ -336,5 +479,174 @@ mod tests {
             e,
             "m.vtu: Cells: edges shared by more than two triangles (non-manifold mesh) at cells 2 (1 in all)"
         );
+    }
+
+    /// Cells as (VTK type, nodes).
+    type Cells = Vec<(u8, Vec<u32>)>;
+
+    /// Builds the topology of triangles, quads or quadratic cells given by VTK type.
+    fn topology_of(points: &[[f64; 2]], cells: &[(u8, Vec<u32>)]) -> Result<Topology> {
+        let f = VtuFile::from_cells(
+            Path::new("m.vtu"),
+            points.iter().map(|p| [p[0], p[1], 0.0]).collect(),
+            cells,
+        );
+        build(&mesh::build(f)?)
+    }
+
+    /// [0, 2] × [0, 1]: the left square in two triangles, the right one in four, which meet
+    /// the left triangle's edge x = 1 in two pieces (vertex 6 hangs on it).
+    fn hanging_triangles() -> (Vec<[f64; 2]>, Cells) {
+        let points = vec![
+            [0., 0.],
+            [1., 0.],
+            [1., 1.],
+            [0., 1.],
+            [2., 0.],
+            [2., 1.],
+            [1., 0.5],
+            [2., 0.5],
+        ];
+        let cells = [
+            [0, 1, 2],
+            [0, 2, 3],
+            [1, 4, 7],
+            [1, 7, 6],
+            [6, 7, 5],
+            [6, 5, 2],
+        ];
+        (points, cells.iter().map(|c| (5u8, c.to_vec())).collect())
+    }
+
+    #[test]
+    fn a_hanging_node_is_named() {
+        let (points, cells) = hanging_triangles();
+        let e = topology_of(&points, &cells).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "m.vtu: Cells: hanging nodes: the mesh is not conforming (cells 0 (1 in all) have \
+             an edge that their neighbours meet in pieces; the first: the vertex at (1, 0.5) \
+             lies inside the edge (1, 0)–(1, 1) of cell 0); write the solution on a conforming \
+             mesh"
+        );
+        // Split at the hanging vertex, the same mesh is conforming.
+        let mut split = cells.clone();
+        split[0] = (5, vec![0, 1, 6]);
+        split.push((5, vec![0, 6, 2]));
+        let t = topology_of(&points, &split).unwrap();
+        assert_eq!(t.boundary_edges.len(), 7);
+    }
+
+    #[test]
+    fn two_levels_of_hanging_nodes_and_quadrilaterals() {
+        // The right square fanned from (2, 0) and (2, 1): x = 1 in four pieces.
+        let points = vec![
+            [0., 0.],
+            [1., 0.],
+            [1., 1.],
+            [0., 1.],
+            [2., 0.],
+            [2., 1.],
+            [1., 0.25],
+            [1., 0.5],
+            [1., 0.75],
+        ];
+        let cells: Vec<(u8, Vec<u32>)> = [
+            [0, 1, 2],
+            [0, 2, 3],
+            [1, 4, 6],
+            [6, 4, 7],
+            [7, 4, 5],
+            [7, 5, 8],
+            [8, 5, 2],
+        ]
+        .iter()
+        .map(|c| (5u8, c.to_vec()))
+        .collect();
+        let e = topology_of(&points, &cells).unwrap_err().to_string();
+        assert!(
+            e.contains("the vertex at (1, 0.25) lies inside the edge (1, 0)–(1, 1) of cell 0"),
+            "{e}"
+        );
+        // Bilinear quadrilaterals: one on the left, two on the right.
+        let (points, _) = hanging_triangles();
+        let quads = vec![
+            (9u8, vec![0, 1, 2, 3]),
+            (9, vec![1, 4, 7, 6]),
+            (9, vec![6, 7, 5, 2]),
+        ];
+        let e = topology_of(&points, &quads).unwrap_err().to_string();
+        assert!(
+            e.contains("the vertex at (1, 0.5) lies inside the edge (1, 0)–(1, 1) of cell 0"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_hanging_node_on_a_quadratic_edge() {
+        // The left triangle's mid node on x = 1 is a vertex of the two right triangles.
+        let points = vec![
+            [0., 0.],
+            [1., 0.],
+            [1., 1.],
+            [0.5, 0.],
+            [1., 0.5],
+            [0.5, 0.5],
+            [2., 0.5],
+            [1.5, 0.25],
+            [1.5, 0.5],
+            [1., 0.25],
+            [1.5, 0.75],
+            [1., 0.75],
+        ];
+        let cells = vec![
+            (22u8, vec![0, 1, 2, 3, 4, 5]),
+            (22, vec![1, 6, 4, 7, 8, 9]),
+            (22, vec![4, 6, 2, 8, 10, 11]),
+        ];
+        let e = topology_of(&points, &cells).unwrap_err().to_string();
+        assert!(
+            e.contains("the vertex at (1, 0.5) lies inside the edge (1, 0)–(1, 1) of cell 0"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_crack_with_unmatched_faces_is_no_hanging_node() {
+        // [0, 2] × [−1, 1] cut along y = 0 for x < 1 (tip (1, 0)): the upper face has two edges,
+        // the lower face one, inside which the upper face's middle vertex lies. The faces share
+        // the tip only, so the cut stays a boundary.
+        let points = vec![
+            [0., 0.],  // 0: upper face
+            [1., 0.],  // 1: tip
+            [1., 1.],  // 2
+            [0., 1.],  // 3
+            [2., 0.],  // 4
+            [2., 1.],  // 5
+            [1., -1.], // 6
+            [2., -1.], // 7
+            [0., 0.],  // 8: lower face (a separate node at the same place)
+            [0., -1.], // 9
+            [0.5, 0.], // 10: upper face
+        ];
+        // The lower face's one edge runs from the tip (its first end: the walk starts there)
+        // through the place of vertex 10 to node 8, which the upper face never reaches.
+        let cells: Vec<(u8, Vec<u32>)> = [
+            [0, 10, 3],
+            [10, 1, 2],
+            [10, 2, 3],
+            [1, 4, 5],
+            [1, 5, 2],
+            [1, 6, 7],
+            [1, 7, 4],
+            [8, 9, 6],
+            [8, 6, 1],
+        ]
+        .iter()
+        .map(|c| (5u8, c.to_vec()))
+        .collect();
+        let t = topology_of(&points, &cells).unwrap();
+        // Outer boundary 8 edges, and the cut's faces: 1 + 2.
+        assert_eq!(t.boundary_edges.len(), 11);
     }
 }

@@ -155,6 +155,40 @@ fn inverted_and_degenerate_cells() {
 }
 
 #[test]
+fn hanging_nodes() {
+    // [0, 2] × [0, 1]: one triangle of the left square has the edge x = 1, which the right
+    // square's four triangles meet in two pieces (the vertex (1, 0.5) hangs on it), as
+    // MFEM's and deal.II's non-conforming refinement writes it.
+    let f = VtuFile::from_cells(
+        Path::new("x.vtu"),
+        vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0., 1., 0.],
+            [2., 0., 0.],
+            [2., 1., 0.],
+            [1., 0.5, 0.],
+            [2., 0.5, 0.],
+        ],
+        &[
+            (5, vec![0, 1, 2]),
+            (5, vec![0, 2, 3]),
+            (5, vec![1, 4, 7]),
+            (5, vec![1, 7, 6]),
+            (5, vec![6, 7, 5]),
+            (5, vec![6, 5, 2]),
+        ],
+    );
+    assert_eq!(
+        refused("hanging.vtu", &to_bytes(&f, Placement::AppendedRaw)),
+        "Cells: hanging nodes: the mesh is not conforming (cells 0 (1 in all) have an edge that \
+         their neighbours meet in pieces; the first: the vertex at (1, 0.5) lies inside the edge \
+         (1, 0)–(1, 1) of cell 0); write the solution on a conforming mesh"
+    );
+}
+
+#[test]
 fn unknown_cell_type() {
     let f = square(&[(5, vec![0, 1, 2]), (7, vec![0, 1, 3, 2])]);
     assert_eq!(
