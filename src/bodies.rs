@@ -405,6 +405,21 @@ pub fn restrict(data: &Dataset, bodies: &Bodies, b: usize) -> Dataset {
             .collect(),
         cell_data: data.cell_data.iter().map(|a| pick(a, &cells)).collect(),
         line_data: data.line_data.iter().map(|a| pick(a, &lines)).collect(),
+        // The copies' node keys follow the points' renumbering.
+        copies: data
+            .copies
+            .iter()
+            .map(|a| {
+                let mut a = pick(a, &cells);
+                let slot = a.components / crate::geometry::MAX_NODES;
+                for r in a.values.chunks_exact_mut(slot) {
+                    if r[0] != f64::from(NONE) {
+                        r[0] = f64::from(new_index[r[0] as usize]);
+                    }
+                }
+                a
+            })
+            .collect(),
         report,
     }
 }

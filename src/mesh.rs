@@ -205,7 +205,38 @@ pub struct Dataset {
     pub cell_data: Vec<DataArray>,
     /// Cell arrays restricted to the lines.
     pub line_data: Vec<DataArray>,
+    /// Per 2D cell, for each point array of 2 or 3 components whose node copies disagree (an
+    /// exploded file of a field that is discontinuous across cells): the cell's own copy minus
+    /// the merged value at each of its nodes, as [`CopyRows`]. Empty otherwise.
+    pub copies: Vec<DataArray>,
     pub report: MeshReport,
+}
+
+/// The rows of a [`Dataset::copies`] array: per cell, [`MAX_NODES`] slots of (merged node, its
+/// c deviations), the node stored as f64 (`NONE` in unused slots). Keyed by node, not slot,
+/// because building the mesh may reorder a cell's nodes after the merge (clockwise cells).
+pub struct CopyRows<'a> {
+    array: &'a DataArray,
+    components: usize,
+}
+
+impl<'a> CopyRows<'a> {
+    pub fn new(array: &'a DataArray) -> CopyRows<'a> {
+        CopyRows {
+            array,
+            components: array.components / MAX_NODES - 1,
+        }
+    }
+
+    /// The cell's own value minus the merged one at `node` (its first two components), 0 for
+    /// a node the cell does not hold.
+    pub fn deviation(&self, t: usize, node: u32) -> [f64; 2] {
+        let slot = 1 + self.components;
+        let row = &self.array.values[t * self.array.components..(t + 1) * self.array.components];
+        row.chunks_exact(slot)
+            .find(|r| r[0] == f64::from(node))
+            .map_or([0.0; 2], |r| [r[1], r[2]])
+    }
 }
 
 impl Dataset {
@@ -401,8 +432,10 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
         line_cell,
     };
     let mut point_data = file.point_data;
-    if let Some(merge) = merge_copies(&mut mesh, &mut point_data, &file.piece_points) {
+    let mut copies = Vec::new();
+    if let Some((merge, c)) = merge_copies(&mut mesh, &mut point_data, &file.piece_points) {
         report.merge = Some(merge);
+        copies = c;
     }
 
     check_geometry(&mut mesh, &mut report).map_err(|(place, problem)| err(&place, problem))?;
@@ -435,6 +468,7 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
         point_data,
         cell_data,
         line_data,
+        copies,
         report,
     })
 }
@@ -654,14 +688,15 @@ fn component_count(comp: &[u32]) -> usize {
 }
 
 /// Merges node copies and averages point data over copies, recording the largest jump per
-/// array. Copies arise in exploded meshes (no node shared by two triangles), where any two
+/// array and, for arrays of 2 or 3 components that jump, every cell's own copies
+/// ([`Dataset::copies`]). Copies arise in exploded meshes (no node shared by two triangles), where any two
 /// coincident nodes are merged, and in files of several pieces, where coincident nodes of
 /// different pieces are. Coincident nodes of one piece of a conforming mesh (a slit) are kept.
 fn merge_copies(
     mesh: &mut Mesh,
     point_data: &mut [DataArray],
     piece_points: &[usize],
-) -> Option<Merge> {
+) -> Option<(Merge, Vec<DataArray>)> {
     let np = mesh.points.len();
     if mesh.cells.len() < 2 {
         return None;
@@ -812,6 +847,7 @@ fn merge_copies(
         copies[n as usize] += 1;
     }
     let mut jumps = Vec::new();
+    let mut own = Vec::new();
     for a in point_data.iter_mut() {
         let c = a.components;
         let mut sum = vec![0.0; count as usize * c];
@@ -850,6 +886,33 @@ fn merge_copies(
                 max_abs = max_abs.max(lo[n * c + k].abs()).max(hi[n * c + k].abs());
             }
         }
+        // A displacement written per cell (a discontinuous field): the broken-norm distance
+        // of the merged field from it enters the bound (`audit`), so each cell keeps its own.
+        if max_jump > 0.0 && (2..=3).contains(&c) {
+            let slot = 1 + c;
+            let row = MAX_NODES * slot;
+            let mut v = vec![0.0; mesh.cells.len() * row];
+            for (cell, out) in mesh.cells.iter().zip(v.chunks_exact_mut(row)) {
+                for (&i, r) in cell.iter().zip(out.chunks_exact_mut(slot)) {
+                    if i == NONE {
+                        r[0] = f64::from(NONE);
+                        continue;
+                    }
+                    let (i, n) = (i as usize, new_index[i as usize] as usize);
+                    r[0] = n as f64;
+                    for k in 0..c {
+                        r[1 + k] = a.values[i * c + k] - sum[n * c + k];
+                    }
+                }
+            }
+            own.push(DataArray {
+                name: a.name.clone(),
+                scalar: crate::read::decode::Scalar::Float64,
+                components: row,
+                component_names: Vec::new(),
+                values: v,
+            });
+        }
         a.values = sum;
         jumps.push(Jump {
             array: a.name.clone(),
@@ -872,13 +935,16 @@ fn merge_copies(
         }
     }
     mesh.points = points;
-    Some(Merge {
-        exploded,
-        groups: fragments.map(|f| f.1),
-        points_in_file: np,
-        points_merged: count as usize,
-        jumps,
-    })
+    Some((
+        Merge {
+            exploded,
+            groups: fragments.map(|f| f.1),
+            points_in_file: np,
+            points_merged: count as usize,
+            jumps,
+        },
+        own,
+    ))
 }
 
 #[cfg(test)]

@@ -357,6 +357,24 @@ fn unusable_patch_stress(
     (!failures.is_empty()).then(|| failures.join("; "))
 }
 
+/// The displacement array's node-copy jump and its cells' own copies, when the file wrote it
+/// per cell and the copies disagree (mesh.rs keeps them then): None otherwise.
+fn discontinuous_displacement<'a>(
+    data: &'a mesh::Dataset,
+    name: Option<&str>,
+) -> Option<(&'a mesh::Jump, &'a crate::read::vtu::DataArray)> {
+    let name = name?;
+    let copies = data.copies.iter().find(|a| a.name == name)?;
+    let jump = data
+        .report
+        .merge
+        .as_ref()?
+        .jumps
+        .iter()
+        .find(|j| j.array == name && j.max > 0.0)?;
+    Some((jump, copies))
+}
+
 /// The warning for the report when `info.condition_estimate` exceeds [`crate::solve::condition::WARN_ABOVE`].
 fn condition_warning(info: &crate::solve::SolveInfo, what: &str) -> Option<String> {
     let kappa = info.condition_estimate;
@@ -790,6 +808,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         b
     });
     progress.stage("evaluating the functional");
+    let mut notes_extra: Vec<String> = Vec::new();
     let mut est: Estimate = estimate::run(&ctx, u, sigma);
     if let Some(b) = halves_bound {
         est.bound = b;
@@ -816,6 +835,30 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     }
     if let Some(p) = &projection {
         est.bound.add_projection(p.distance);
+    }
+    // A displacement written per cell whose node copies disagree: F and the bound are those of
+    // its average ū_h (mesh.rs); the broken-norm distance makes the bound one for the file's
+    // u_h (design §4.2, "Discontinuous displacements").
+    let discontinuous = rebuilt
+        .is_none()
+        .then(|| discontinuous_displacement(&data, fields.displacement_name.as_deref()))
+        .flatten();
+    if let Some((jump, copies)) = discontinuous {
+        let distance = estimate::copies::copies_distance(&ctx, copies);
+        est.bound.add_copies(distance);
+        if est.bound.energy_error.is_some() {
+            est.bound.statement = format!(
+                "{} (u_h is discontinuous across cells: the bound is for the broken energy \
+                 norm, that of the copies' average ū_h plus |||ū_h − u_h|||_h = {distance:.6e})",
+                est.bound.statement
+            );
+        }
+        notes_extra.push(format!(
+            "displacement \"{}\" discontinuous across cells: its node copies disagree by up to \
+             {:.3e} ({:.3e} of its largest value); F and the bound use their average ū_h, and \
+             the bound adds |||ū_h − u_h|||_h = {distance:.6e} (broken energy norm)",
+            jump.array, jump.max, jump.relative
+        ));
     }
     // The contact zone is the file's displacement's (the projection lifts the zone by up to
     // ~1e-5 and would reopen it, issue 12; the traction is the stress used's). A patch stress
@@ -863,6 +906,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         cells: report::mark::dorfler(&report::eta_squared(&est.cells), theta),
     });
     let mut notes = fields.notes.clone();
+    notes.append(&mut notes_extra);
     if body.list.len() > 1 {
         notes.push(format!(
             "the file holds {} bodies (connected components of the cells); audited {}, chosen \
@@ -1052,6 +1096,10 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                     "used as is (--displacement file) although {violations} nodes are \
                      inadmissible"
                 ),
+                (None, None) if discontinuous.is_some() => "discontinuous across cells: \
+                                                            averaged over its node copies \
+                                                            (admissible at the nodes)"
+                    .into(),
                 (None, None) => "conforming and admissible at the nodes, used as is".into(),
             },
         },

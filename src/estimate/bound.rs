@@ -83,6 +83,13 @@ pub struct BoundTerms {
     /// distance.
     #[serde(default)]
     pub halves: f64,
+    /// |||ū_h − u_h|||_h: a displacement written per cell whose node copies disagree (an
+    /// exploded file of a discontinuous field) is averaged over them when the mesh is built;
+    /// the bound is taken for that average ū_h, and this distance in the broken energy norm
+    /// added, so that it bounds the error of the file's u_h in the broken norm (design §4.2,
+    /// "Discontinuous displacements").
+    #[serde(default)]
+    pub copies: f64,
     /// Largest local Korn constant K_T used.
     pub korn_max: f64,
     /// Cells whose stress was made exactly symmetric by the Alfeld-split correction
@@ -129,6 +136,17 @@ impl Bound {
             return;
         };
         t.halves += distance;
+        self.refresh();
+    }
+
+    /// The bound taken for the average ū_h of a displacement whose node copies disagree, made
+    /// one for the file's u_h in the broken energy norm: |||u − u_h|||_h ≤ |||u − ū_h||| +
+    /// `distance` (the triangle inequality; u and ū_h are continuous).
+    pub fn add_copies(&mut self, distance: f64) {
+        let Some(t) = self.terms.as_mut() else {
+            return;
+        };
+        t.copies += distance;
         self.refresh();
     }
 
@@ -189,10 +207,11 @@ fn combine(t: &BoundTerms) -> (f64, &'static str) {
     )
 }
 
-/// (½)^½ (E + ‖v − u_h‖_E + |||ũ_h − u_h|||), E from [`combine`] (the last term only on
-/// the triangle halves of a mesh with quadrilaterals).
+/// (½)^½ (E + ‖v − u_h‖_E + |||ũ_h − u_h||| + |||ū_h − u_h|||_h), E from [`combine`] (the
+/// third term only on the triangle halves of a mesh with quadrilaterals, the last only for a
+/// displacement whose node copies disagree).
 fn energy_error(t: &BoundTerms) -> f64 {
-    0.5f64.sqrt() * (combine(t).0 + t.projection + t.halves)
+    0.5f64.sqrt() * (combine(t).0 + t.projection + t.halves + t.copies)
 }
 
 /// j₁,₁ ≈ 3.8317, the first positive root of the Bessel function J₁: on a triangle T of
@@ -852,6 +871,7 @@ pub fn bound_with(
             .sqrt(),
         combination: String::new(),
         halves: 0.0,
+        copies: 0.0,
         korn_max,
         symmetrised_cells: cells.iter().filter(|c| c.symmetrised).count(),
     };
@@ -1048,6 +1068,9 @@ mod tests {
         b.add_projection(1.0);
         assert!((b.energy_error.unwrap() - 5.0 * 0.5f64.sqrt()).abs() < 1e-15);
         assert!((b.relative.unwrap() - 2.5 * 0.5f64.sqrt()).abs() < 1e-15);
+        // The broken-norm distance of a discontinuous u_h from its average, the same way.
+        b.add_copies(2.0);
+        assert!((b.energy_error.unwrap() - 7.0 * 0.5f64.sqrt()).abs() < 1e-15);
     }
 
     #[test]

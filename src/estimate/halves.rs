@@ -447,6 +447,7 @@ pub fn split(
         point_data: Vec::new(),
         cell_data: Vec::new(),
         line_data: Vec::new(),
+        copies: Vec::new(),
         report: MeshReport::default(),
     };
     let sub_topo = crate::topology::build(&sub).map_err(|e| e.to_string())?;

@@ -208,6 +208,7 @@ pub struct Estimate {
 pub mod bound;
 pub mod boundary;
 pub mod bubble;
+pub mod copies;
 pub mod data;
 pub mod halves;
 pub mod interior;

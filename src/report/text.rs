@@ -405,6 +405,15 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
                 n(t.halves)
             );
         }
+        if t.copies > 0.0 {
+            let _ = writeln!(
+                o,
+                "  u_h is discontinuous across cells (its node copies disagree): the bound is for \
+                 the broken energy norm, |||ū_h − u_h|||_h = {} added to that of its average ū_h \
+                 (design §4.2)",
+                n(t.copies)
+            );
+        }
     }
     if let Some(r) = b.relative {
         let _ = writeln!(o, "  relative: {} ({} %)", n(r), num(100.0 * r, 4));
