@@ -48,11 +48,28 @@ const CELLS: [[usize; 3]; 7] = [
 /// The moved copy: node 6 of cell 0, x-component.
 const MOVE: f64 = 1e-5;
 
+/// The exact stress Cε(u) (constant), as the 9 components xx, xy, xz, yx, yy, yz, zx, zy, zz
+/// of plane strain.
+fn exact_stress() -> [f64; 9] {
+    let mu = E / (2.0 * (1.0 + NU));
+    let lambda = E * NU / ((1.0 + NU) * (1.0 - 2.0 * NU));
+    let (exx, eyy, exy) = (1e-3, -3e-4, 1.5e-4);
+    let tr = exx + eyy;
+    let (sxx, syy, sxy) = (
+        2.0 * mu * exx + lambda * tr,
+        2.0 * mu * eyy + lambda * tr,
+        2.0 * mu * exy,
+    );
+    [sxx, sxy, 0.0, sxy, syy, 0.0, 0.0, 0.0, lambda * tr]
+}
+
 /// [0, 2] × [0, 1] in 7 P1 triangles, every cell with its own node copies (as NGSolve's
-/// `VTKOutput` writes), u exact except the first cell's copy of node 6 moved by `moved`.
-fn exploded(dir: &Path, moved: f64) -> PathBuf {
+/// `VTKOutput` writes), u exact except the first cell's copy of node 6 moved by `moved`, and
+/// the exact stress except the first cell's copies scaled by 1 + `stress_off`.
+fn exploded(dir: &Path, moved: f64, stress_off: f64) -> PathBuf {
     let mut points = Vec::new();
     let mut u = Vec::new();
+    let mut stress = Vec::new();
     let mut cells = Vec::new();
     for (t, c) in CELLS.iter().enumerate() {
         let mut ids = Vec::new();
@@ -65,10 +82,12 @@ fn exploded(dir: &Path, moved: f64) -> PathBuf {
             ids.push(points.len() as u32);
             points.push([x, y, 0.0]);
             u.extend(v);
+            let scale = if t == 0 { 1.0 + stress_off } else { 1.0 };
+            stress.extend(exact_stress().map(|c| c * scale));
         }
         cells.push((5u8, ids));
     }
-    let path = dir.join(format!("exploded_{moved:e}.vtu"));
+    let path = dir.join(format!("exploded_{moved:e}_{stress_off:e}.vtu"));
     let mut f = VtuFile::from_cells(&path, points, &cells);
     f.point_data.push(DataArray {
         name: "u".into(),
@@ -76,6 +95,13 @@ fn exploded(dir: &Path, moved: f64) -> PathBuf {
         components: 2,
         component_names: Vec::new(),
         values: u,
+    });
+    f.point_data.push(DataArray {
+        name: "stress".into(),
+        scalar: Scalar::Float64,
+        components: 9,
+        component_names: Vec::new(),
+        values: stress,
     });
     write_vtu(&path, &f, Placement::Inline).unwrap();
     path
@@ -99,7 +125,7 @@ fn a_moved_copy_is_bounded_in_the_broken_norm() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, SCENE).unwrap();
-    let file = exploded(dir.path(), MOVE);
+    let file = exploded(dir.path(), MOVE, 0.1);
     let (code, report, stderr) =
         common::cli::estimate(&file, &["--scene", scene.to_str().unwrap(), "--quiet"]);
     assert_eq!(code, 0, "{stderr}");
@@ -146,11 +172,17 @@ fn equal_copies_add_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, SCENE).unwrap();
-    let file = exploded(dir.path(), 0.0);
+    let file = exploded(dir.path(), 0.0, 0.0);
     let (code, report, stderr) =
         common::cli::estimate(&file, &["--scene", scene.to_str().unwrap(), "--quiet"]);
     assert_eq!(code, 0, "{stderr}");
-    let b = report.unwrap().bound;
+    let r = report.unwrap();
+    assert_eq!(r.stress.reason, "conforming nodal stress, used as is");
+    assert_eq!(
+        r.displacement.reason,
+        "conforming and admissible at the nodes, used as is"
+    );
+    let b = r.bound;
     assert_eq!(b.terms.as_ref().unwrap().copies, 0.0);
     assert!(!b.statement.contains("broken"), "{}", b.statement);
     // The exact solution: the bound is round-off.

@@ -357,6 +357,17 @@ fn unusable_patch_stress(
     (!failures.is_empty()).then(|| failures.join("; "))
 }
 
+/// The node-copy jump of point array `name`, when the file wrote it per cell (an exploded
+/// file) and the copies disagree: None otherwise.
+fn copy_jump<'a>(data: &'a mesh::Dataset, name: &str) -> Option<&'a mesh::Jump> {
+    data.report
+        .merge
+        .as_ref()?
+        .jumps
+        .iter()
+        .find(|j| j.array == name && j.max > 0.0)
+}
+
 /// The displacement array's node-copy jump and its cells' own copies, when the file wrote it
 /// per cell and the copies disagree (mesh.rs keeps them then): None otherwise.
 fn discontinuous_displacement<'a>(
@@ -365,14 +376,7 @@ fn discontinuous_displacement<'a>(
 ) -> Option<(&'a mesh::Jump, &'a crate::read::vtu::DataArray)> {
     let name = name?;
     let copies = data.copies.iter().find(|a| a.name == name)?;
-    let jump = data
-        .report
-        .merge
-        .as_ref()?
-        .jumps
-        .iter()
-        .find(|j| j.array == name && j.max > 0.0)?;
-    Some((jump, copies))
+    Some((copy_jump(data, name)?, copies))
 }
 
 /// The warning for the report when `info.condition_estimate` exceeds [`crate::solve::condition::WARN_ABOVE`].
@@ -784,7 +788,17 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
                     "P{} nodal, continuous (H(div)-conforming), layout {layout}",
                     data.mesh.degree
                 ),
-                reason: "conforming nodal stress, used as is".into(),
+                // Copies that disagree were averaged when the mesh was built: F then uses
+                // that average, not the file's (discontinuous) stress (design §4.2).
+                reason: match copy_jump(&data, name) {
+                    Some(j) => format!(
+                        "discontinuous across cells: its node copies disagree by up to {:.3e} \
+                         ({:.3e} of its largest value), so F uses their average, which is \
+                         continuous",
+                        j.max, j.relative
+                    ),
+                    None => "conforming nodal stress, used as is".into(),
+                },
             },
         ),
         _ => unreachable!("a stress that is not nodal is reconstructed"),
