@@ -689,9 +689,10 @@ fn component_count(comp: &[u32]) -> usize {
 
 /// Merges node copies and averages point data over copies, recording the largest jump per
 /// array and, for arrays of 2 or 3 components that jump, every cell's own copies
-/// ([`Dataset::copies`]). Copies arise in exploded meshes (no node shared by two triangles), where any two
-/// coincident nodes are merged, and in files of several pieces, where coincident nodes of
-/// different pieces are. Coincident nodes of one piece of a conforming mesh (a slit) are kept.
+/// ([`Dataset::copies`]). Copies arise in exploded meshes (no node shared by two triangles),
+/// where any two coincident nodes are merged, and in files of several pieces, where coincident
+/// nodes of different pieces are. Coincident nodes of one piece of a conforming mesh (a slit)
+/// are kept.
 fn merge_copies(
     mesh: &mut Mesh,
     point_data: &mut [DataArray],

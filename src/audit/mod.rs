@@ -869,8 +869,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         }
         notes_extra.push(format!(
             "displacement \"{}\" discontinuous across cells: its node copies disagree by up to \
-             {:.3e} ({:.3e} of its largest value); F and the bound use their average ū_h, and \
-             the bound adds |||ū_h − u_h|||_h = {distance:.6e} (broken energy norm)",
+             {:.3e} ({:.3e} of its largest value); F and the bound use their average ū_h, \
+             and a bound adds |||ū_h − u_h|||_h = {distance:.6e} (broken energy norm)",
             jump.array, jump.max, jump.relative
         ));
     }
