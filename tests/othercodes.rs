@@ -3,6 +3,8 @@
 //! (every element refined into linear cells, points shared only inside an element), from
 //! `reference/othercodes/`. Independent sources: the solvers' reactions and the contact
 //! widths in `expected.json`, and scikit-fem's solution of the same problem on the same mesh.
+//! And MFEM's output of a non-conforming mesh (`reference/nonconforming/`), refused naming a
+//! hanging vertex that VTK's reader finds too.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -384,4 +386,55 @@ fn from_a_dolfinx_file_to_a_first_estimate() {
     let two_a = e["hertz"]["two_a"].as_f64().unwrap();
     assert!(((r.contact.normal_force - p) / p).abs() < 0.01);
     assert!(((r.contact.active_length - two_a) / two_a).abs() < 0.03);
+}
+
+/// "(x, y)" as fosls prints a point, parsed.
+fn point(s: &str) -> [f64; 2] {
+    let v: Vec<f64> = s
+        .trim_matches(|c| c == '(' || c == ')')
+        .split(", ")
+        .map(|t| t.parse().unwrap())
+        .collect();
+    [v[0], v[1]]
+}
+
+#[test]
+fn mfem_non_conforming_output_is_refused_naming_a_hanging_vertex() {
+    // MFEM's ParaViewDataCollection of a non-conformingly refined mesh, in every form MFEM
+    // writes (reference/nonconforming/). Independent source: the hanging vertices VTK's reader
+    // finds in each file (expected.json).
+    let dir = root().join("fixtures").join("mfem_nonconforming");
+    let exp: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
+    let cases = exp["cases"].as_object().unwrap();
+    assert_eq!(cases.len(), 8);
+    for (case, c) in cases {
+        let file = dir.join(c["entry"].as_str().unwrap());
+        let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
+            .arg("inspect")
+            .arg(&file)
+            .arg("--quiet")
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{case}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{case}: {stderr}");
+        assert!(
+            stderr.contains("Cells: hanging nodes: the mesh is not conforming"),
+            "{case}: {stderr}"
+        );
+        // "the vertex at (x, y) lies inside the edge (a)–(b) of cell …"
+        let tail = stderr.split("the vertex at ").nth(1).unwrap();
+        let (v, rest) = tail.split_once(" lies inside the edge ").unwrap();
+        let (edge, _) = rest.split_once(" of cell ").unwrap();
+        let (a, b) = edge.split_once('–').unwrap();
+        let (v, a, b) = (point(v), point(a), point(b));
+        let listed = c["hanging_vertices"].as_array().unwrap().iter().any(|h| {
+            let p = |x: &Value| [x[0].as_f64().unwrap(), x[1].as_f64().unwrap()];
+            let (hv, e0, e1) = (p(&h["vertex"]), p(&h["edge"][0]), p(&h["edge"][1]));
+            let same = |x: [f64; 2], y: [f64; 2]| (x[0] - y[0]).abs() + (x[1] - y[1]).abs() < 1e-12;
+            same(hv, v) && ((same(e0, a) && same(e1, b)) || (same(e0, b) && same(e1, a)))
+        });
+        assert!(listed, "{case}: {stderr} names no hanging vertex VTK found");
+    }
 }
