@@ -10,8 +10,9 @@
 
 use rayon::prelude::*;
 
+use crate::geometry::CellValuesCache;
+use crate::geometry::MAX_NODES;
 use crate::geometry::values::interior_table;
-use crate::geometry::{CellValues, Family, MAX_NODES, Shape};
 use crate::mesh::CopyRows;
 use crate::problem::Context;
 use crate::read::scene::Norm;
@@ -27,16 +28,11 @@ pub fn copies_distance(ctx: &Context, copies: &DataArray) -> f64 {
     let per_cell: Vec<f64> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(1024)
-        .map_init(Vec::<(Family, Shape, CellValues)>::new, |cache, t| {
-            let (f, sh) = (mesh.family[t], mesh.shape[t]);
-            let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
-                Some(i) => i,
-                None => {
-                    cache.push((f, sh, CellValues::new(interior_table(f, sh, None, true))));
-                    cache.len() - 1
-                }
-            };
-            let cv = &mut cache[i].2;
+        .map_init(CellValuesCache::default, |cache, t| {
+            let sh = mesh.shape[t];
+            let cv = cache.get(mesh.family[t], sh, |f, sh| {
+                interior_table(f, sh, None, true)
+            });
             let nodes = mesh.nodes(t);
             let mut d = [[0.0; 2]; MAX_NODES];
             for (k, &p) in nodes.iter().enumerate() {

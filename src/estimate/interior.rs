@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::expr::Expr;
 use crate::field::StressField;
 use crate::geometry::values::interior_table;
-use crate::geometry::{CellValues, Family, MAX_NODES, Shape};
+use crate::geometry::{CellValues, CellValuesCache, MAX_NODES};
 use crate::material::Elastic;
 use crate::mesh::Mesh;
 use crate::problem::Context;
@@ -71,17 +71,10 @@ pub fn interior(ctx: &Context, u: &[[f64; 2]], sigma: StressField) -> Interior {
     let per_cell: Vec<[f64; 3]> = (0..mesh.len())
         .into_par_iter()
         .with_min_len(1024)
-        .map_init(Vec::<(Family, Shape, CellValues)>::new, |cache, t| {
-            let (f, sh) = (mesh.family[t], mesh.shape[t]);
-            let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
-                Some(i) => i,
-                None => {
-                    let tb = interior_table(f, sh, rt, constant_f);
-                    cache.push((f, sh, CellValues::new(tb)));
-                    cache.len() - 1
-                }
-            };
-            let cv = &mut cache[i].2;
+        .map_init(CellValuesCache::default, |cache, t| {
+            let cv = cache.get(mesh.family[t], mesh.shape[t], |f, sh| {
+                interior_table(f, sh, rt, constant_f)
+            });
             cell(inp, t, cv, constant_f, f_const)
         })
         .collect();

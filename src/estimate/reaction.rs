@@ -29,7 +29,7 @@
 use rayon::prelude::*;
 
 use crate::geometry::values::interior_table;
-use crate::geometry::{CellValues, Family, MAX_NODES, Shape, facet_point};
+use crate::geometry::{CellValuesCache, MAX_NODES, facet_point};
 use crate::problem::{Condition, Context};
 use crate::quadrature::line_rule_cached;
 use crate::read::scene::BoundaryKind;
@@ -97,24 +97,15 @@ pub fn contact_normal_force(ctx: &Context, u: &[[f64; 2]]) -> Option<f64> {
     let interior: f64 = (0..mesh.len())
         .into_par_iter()
         .with_min_len(1024)
-        .map_init(Vec::<(Family, Shape, CellValues)>::new, |cache, t| {
+        .map_init(CellValuesCache::default, |cache, t| {
             let nodes = mesh.nodes(t);
             if !nodes.iter().any(|&p| contact[p as usize]) {
                 return 0.0;
             }
-            let (f, sh) = (mesh.family[t], mesh.shape[t]);
-            let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
-                Some(i) => i,
-                None => {
-                    cache.push((
-                        f,
-                        sh,
-                        CellValues::new(interior_table(f, sh, None, constant_f)),
-                    ));
-                    cache.len() - 1
-                }
-            };
-            let cv = &mut cache[i].2;
+            let sh = mesh.shape[t];
+            let cv = cache.get(mesh.family[t], sh, |f, sh| {
+                interior_table(f, sh, None, constant_f)
+            });
             let x = mesh.coords(t);
             cv.reinit(&x[..nodes.len()], sh);
             let mut ue = [[0.0; 2]; MAX_NODES];

@@ -32,7 +32,7 @@ pub mod triangle;
 pub mod values;
 
 pub use map::Jacobian;
-pub use values::{CellValues, FacetPoint, SubCell, Table, facet_point, table};
+pub use values::{CellValues, CellValuesCache, FacetPoint, SubCell, Table, facet_point, table};
 
 /// Largest number of nodes of a cell of any family.
 pub const MAX_NODES: usize = 9;

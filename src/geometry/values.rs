@@ -190,6 +190,32 @@ fn offset(x: &[[f64; 2]], n: usize, phi: &[f64; MAX_NODES]) -> [f64; 2] {
     p
 }
 
+/// One [`CellValues`] per (family, shape) a thread meets, made on first use: the per-thread
+/// state of a parallel loop over cells (`map_init(CellValuesCache::default, …)`).
+#[derive(Default)]
+pub struct CellValuesCache(Vec<(Family, Shape, CellValues)>);
+
+impl CellValuesCache {
+    /// The values for a cell of `family` and `shape`, on the table `table` gives for them
+    /// (asked once per pair); the caller reinitialises them at the cell.
+    pub fn get(
+        &mut self,
+        family: Family,
+        shape: Shape,
+        table: impl FnOnce(Family, Shape) -> &'static Table,
+    ) -> &mut CellValues {
+        let i = match self.0.iter().position(|c| c.0 == family && c.1 == shape) {
+            Some(i) => i,
+            None => {
+                self.0
+                    .push((family, shape, CellValues::new(table(family, shape))));
+                self.0.len() - 1
+            }
+        };
+        &mut self.0[i].2
+    }
+}
+
 /// Geometry of one cell at the points of a [`Table`], refilled by [`CellValues::reinit`]
 /// (one per thread; no allocation per cell).
 pub struct CellValues {

@@ -680,7 +680,7 @@ pub fn cell_stress_mismatch(
     elastic: &crate::material::Elastic,
 ) -> Option<f64> {
     use crate::geometry::MAX_NODES;
-    use crate::geometry::values::{CellValues, interior_table};
+    use crate::geometry::values::interior_table;
     use rayon::prelude::*;
     if !elastic.lambda.is_finite() || cells.len() != mesh.len() {
         return None;
@@ -689,17 +689,12 @@ pub fn cell_stress_mismatch(
         .into_par_iter()
         .with_min_len(1024)
         .map_init(
-            Vec::<(crate::geometry::Family, crate::geometry::Shape, CellValues)>::new,
+            crate::geometry::values::CellValuesCache::default,
             |cache, t| {
-                let (f, sh) = (mesh.family[t], mesh.shape[t]);
-                let i = match cache.iter().position(|c| c.0 == f && c.1 == sh) {
-                    Some(i) => i,
-                    None => {
-                        cache.push((f, sh, CellValues::new(interior_table(f, sh, None, true))));
-                        cache.len() - 1
-                    }
-                };
-                let cv = &mut cache[i].2;
+                let sh = mesh.shape[t];
+                let cv = cache.get(mesh.family[t], sh, |f, sh| {
+                    interior_table(f, sh, None, true)
+                });
                 let nodes = mesh.nodes(t);
                 let x = mesh.coords(t);
                 cv.reinit(&x[..nodes.len()], sh);
