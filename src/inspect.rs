@@ -75,6 +75,9 @@ pub struct Summary {
     pub tag_arrays: Vec<TagArray>,
     /// The connected components of the cells (docs/design.md §4.2 "Bodies").
     pub bodies: Vec<crate::bodies::Body>,
+    /// Fields written one array per component that `estimate` joins (docs/design.md §4.1
+    /// "Component arrays"), one line each.
+    pub joined: Vec<String>,
 }
 
 fn summarize(a: &DataArray) -> ArraySummary {
@@ -175,6 +178,7 @@ pub fn summary(file: &VtuFile, data: &Dataset, topo: &Topology) -> Summary {
         cell_arrays: file.cell_data.iter().map(summarize).collect(),
         tag_arrays,
         bodies: crate::bodies::find(mesh).list,
+        joined: Vec::new(),
     }
 }
 
@@ -277,6 +281,9 @@ pub fn render(s: &Summary) -> String {
         None => {
             let _ = writeln!(o, "  exploded    no");
         }
+    }
+    for j in &s.joined {
+        let _ = writeln!(o, "  components  {j}");
     }
     if s.reoriented > 0 {
         let _ = writeln!(

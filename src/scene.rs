@@ -63,10 +63,15 @@ pub enum Model {
 /// `[fields]`: which arrays of the VTU file to read; `None` = auto-detect.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FieldNames {
-    /// Point-data array with the displacement.
+    /// Point-data array with the displacement (for a list of component arrays, the name of the
+    /// array joined from them, `(ux, uy)`: [`crate::read::components`]).
     pub displacement: Option<String>,
-    /// Point- or cell-data array with the stress.
+    /// The displacement's component arrays (x, y[, z]) when the scene lists them, else empty.
+    pub displacement_parts: Vec<String>,
+    /// Point- or cell-data array with the stress (joined name for a list, as above).
     pub stress: Option<String>,
+    /// The stress's component arrays when the scene lists them, else empty.
+    pub stress_parts: Vec<String>,
     /// Component order of the stress array; inferred from the component count when `None`.
     pub stress_layout: Option<StressLayout>,
 }

@@ -159,7 +159,7 @@ pub fn starter_scene(data: &Dataset, topo: &Topology, file_name: &str) -> Result
     let _ = writeln!(o, "[fields]");
     match &fields.displacement_name {
         Some(n) => {
-            let _ = writeln!(o, "displacement = {:?}", n);
+            let _ = writeln!(o, "displacement = {}", field_value(n, &data.point_data));
         }
         None => {
             let _ = writeln!(
@@ -170,7 +170,8 @@ pub fn starter_scene(data: &Dataset, topo: &Topology, file_name: &str) -> Result
     }
     match &fields.stress {
         Stress::Nodal { name, layout, .. } | Stress::Cell { name, layout, .. } => {
-            let _ = writeln!(o, "stress = {name:?}");
+            let arrays = [&data.point_data[..], &data.cell_data[..]].concat();
+            let _ = writeln!(o, "stress = {}", field_value(name, &arrays));
             let _ = writeln!(o, "stress_layout = \"{layout}\"");
         }
         Stress::Absent => {
@@ -335,4 +336,20 @@ fn short(v: f64) -> String {
         };
     }
     format!("{v:e}")
+}
+
+/// The scene value naming array `name`: the list of its component arrays when it was joined
+/// from them (`["u_x", "u_y"]`, [`crate::read::components`]), else the name.
+fn field_value(name: &str, arrays: &[crate::read::vtu::DataArray]) -> String {
+    match arrays.iter().find(|a| a.name == name) {
+        Some(a) if crate::read::components::joined_base(a).is_some() => format!(
+            "[{}]",
+            a.component_names
+                .iter()
+                .map(|p| format!("{p:?}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        _ => format!("{name:?}"),
+    }
 }

@@ -74,6 +74,12 @@ fn exploded(dir: &Path, moved: f64, stress_off: f64) -> PathBuf {
 /// [`exploded`], with the first cell's nodes written clockwise when `clockwise` (the mesh
 /// build reorders them after merging the copies).
 fn exploded_with(dir: &Path, moved: f64, stress_off: f64, clockwise: bool) -> PathBuf {
+    exploded_file(dir, moved, stress_off, clockwise, false)
+}
+
+/// [`exploded_with`], with the displacement written as two scalar arrays "u_x", "u_y" when
+/// `split` (joined before the copies are merged: read::components).
+fn exploded_file(dir: &Path, moved: f64, stress_off: f64, clockwise: bool, split: bool) -> PathBuf {
     let mut points = Vec::new();
     let mut u = Vec::new();
     let mut stress = Vec::new();
@@ -97,15 +103,29 @@ fn exploded_with(dir: &Path, moved: f64, stress_off: f64, clockwise: bool) -> Pa
         }
         cells.push((5u8, ids));
     }
-    let path = dir.join(format!("exploded_{moved:e}_{stress_off:e}_{clockwise}.vtu"));
+    let path = dir.join(format!(
+        "exploded_{moved:e}_{stress_off:e}_{clockwise}_{split}.vtu"
+    ));
     let mut f = VtuFile::from_cells(&path, points, &cells);
-    f.point_data.push(DataArray {
-        name: "u".into(),
-        scalar: Scalar::Float64,
-        components: 2,
-        component_names: Vec::new(),
-        values: u,
-    });
+    if split {
+        for (k, name) in ["u_x", "u_y"].into_iter().enumerate() {
+            f.point_data.push(DataArray {
+                name: name.into(),
+                scalar: Scalar::Float64,
+                components: 1,
+                component_names: Vec::new(),
+                values: u.iter().skip(k).step_by(2).copied().collect(),
+            });
+        }
+    } else {
+        f.point_data.push(DataArray {
+            name: "u".into(),
+            scalar: Scalar::Float64,
+            components: 2,
+            component_names: Vec::new(),
+            values: u,
+        });
+    }
     f.point_data.push(DataArray {
         name: "stress".into(),
         scalar: Scalar::Float64,
@@ -145,6 +165,27 @@ fn copies_by_hand() -> f64 {
         })
         .sum::<f64>()
         .sqrt()
+}
+
+/// Written one scalar array per component, the displacement's copies are kept as for a
+/// vector array: the same distance, by hand.
+#[test]
+fn a_displacement_written_per_component_keeps_its_copies() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let file = exploded_file(dir.path(), MOVE, 0.0, false, true);
+    let (code, report, stderr) =
+        common::cli::estimate(&file, &["--scene", scene.to_str().unwrap(), "--quiet"]);
+    assert_eq!(code, 0, "{stderr}");
+    let r = report.unwrap();
+    assert_eq!(r.displacement.name, "(u_x, u_y)");
+    let copies = r.bound.terms.unwrap().copies;
+    let by_hand = copies_by_hand();
+    assert!(
+        (copies - by_hand).abs() <= 1e-12 * by_hand,
+        "{copies} vs {by_hand}"
+    );
 }
 
 #[test]

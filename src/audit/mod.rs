@@ -456,14 +456,25 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         &read::container::ReadOptions { step: opts.step },
     )?;
     read::vtu::check_coordinates(&vtu)?;
+    // The scene is read before the mesh is built, since fields written one array per component
+    // are joined first (read::components); its errors still come after the file's.
+    crate::limits::set_stage("reading the scene");
+    let scene =
+        find_scene(&opts.file, opts.scene.as_deref()).and_then(|path| scene::load_scene(&path));
+    crate::limits::set_stage("reading the solution");
+    let mut vtu = vtu;
+    let joined = match &scene {
+        Ok(scene) => read::components::join(&mut vtu, scene)?,
+        Err(_) => read::components::Joined::default(),
+    };
     let data = mesh::build(vtu)?;
     let topo = topology::build(&data)?;
     progress.done();
     lap("read", &mut stages);
 
     crate::limits::set_stage("reading the scene");
-    let scene_path = find_scene(&opts.file, opts.scene.as_deref())?;
-    let scene: Scene = scene::load_scene(&scene_path)?;
+    let scene: Scene = scene?;
+    let scene_path = scene.file.clone();
     // Tags as `inspect` reads them: NaN or fractional tag values are refused, not ignored.
     read::vtu::check_tags(&opts.file, &data.line_data, scene.tag_array_name(), |l| {
         data.mesh.line_cell[l] as usize
@@ -482,6 +493,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let found = crate::bodies::find(&data.mesh);
     let (data, topo, body) = choose_body(data, topo, &scene, found)?;
     let mut fields = problem::select_fields(&data, &scene)?;
+    fields.notes.splice(0..0, joined.notes);
     // A P2 displacement written at the vertices only (zero mid-edge values) is audited as the
     // P1 interpolant of its vertex values (docs/design.md §4.1).
     let mid_edge = match fields.displacement.as_mut() {

@@ -214,7 +214,8 @@ fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
         .into());
     }
     limits::set_stage("reading the solution");
-    let vtu = read::container::read_solution(file, &Default::default())?;
+    let mut vtu = read::container::read_solution(file, &Default::default())?;
+    read::components::detect(&mut vtu, &Default::default());
     let data = mesh::build(vtu)?;
     let topo = topology::build(&data)?;
     let name = file.file_name().map_or_else(
@@ -249,10 +250,15 @@ fn inspect_file(
     let vtu = read::container::read_solution(file, &read::container::ReadOptions { step })?;
     limits::set_stage("building the mesh");
     read::vtu::check_coordinates(&vtu)?; // issue 14
-    let data = mesh::build(vtu.clone())?;
+    // The mesh is built from the file with its component arrays joined, as `estimate` does,
+    // so that the jumps of the joined fields show; the arrays listed are the file's own.
+    let mut joined_vtu = vtu.clone();
+    let joined = read::components::detect(&mut joined_vtu, &Default::default());
+    let data = mesh::build(joined_vtu)?;
     let topo = topology::build(&data)?;
     limits::set_stage("summarising");
-    let summary = inspect::summary(&vtu, &data, &topo);
+    let mut summary = inspect::summary(&vtu, &data, &topo);
+    summary.joined = joined.notes;
     let to_stdout = json == Some(Path::new("-"));
     if !quiet && !to_stdout {
         write::stdio::write_stdout_text(&inspect::render(&summary))?; // issue 14

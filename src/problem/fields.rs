@@ -11,13 +11,7 @@ use crate::read::vtu::DataArray;
 // ---------------------------------------------------------------------------------------------
 // Fields
 
-/// Point-array names (compared case-insensitively) taken for the displacement when
-/// `[fields] displacement` is not given.
-pub const DISPLACEMENT_NAMES: [&str; 4] = ["displacement", "displacements", "disp", "u"];
-
-/// Point- or cell-array names (compared case-insensitively) taken for the stress when
-/// `[fields] stress` is not given.
-pub const STRESS_NAMES: [&str; 5] = ["stress", "stresses", "sigma", "s", "cauchy_stress"];
+pub use crate::read::components::{DISPLACEMENT_NAMES, STRESS_NAMES};
 
 /// Relative tolerance (of the array's largest magnitude) under which two stress components are
 /// taken as equal at a point, for the ambiguity test of 4-component arrays.
@@ -163,11 +157,22 @@ fn no_displacement(data: &Dataset, scene: &Scene) -> Error {
         "PointData",
         format!(
             "no displacement found (a point array named displacement, displacements, disp or u \
-             with 2 or 3 components; point arrays: {}); set [fields] displacement = \"…\" in {}",
+             with 2 or 3 components; point arrays: {}); set [fields] displacement = \"…\"{} in {}",
             list_arrays(&data.point_data),
+            list_hint(&data.point_data),
             scene.file.display()
         ),
     )
+}
+
+/// `, or a list of its component arrays ["…", "…"]` when `arrays` hold two or more
+/// one-component arrays (a field written one array per component: `read::components`).
+fn list_hint(arrays: &[DataArray]) -> &'static str {
+    if arrays.iter().filter(|a| a.components == 1).count() >= 2 {
+        " (or the list of its component arrays, [\"…\", \"…\"])"
+    } else {
+        ""
+    }
 }
 
 /// The displacement's point array: named in the scene, or the one auto-detected candidate.
@@ -185,9 +190,15 @@ fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<Option<&'a
             return Err(scene.error(
                 place,
                 format!(
-                    "no point array \"{}\" in {file}{cell} (point arrays: {})",
+                    "no point array \"{}\" in {file}{cell} (point arrays: {}){}",
                     name.escape_debug(),
-                    list_arrays(&data.point_data)
+                    list_arrays(&data.point_data),
+                    if list_hint(&data.point_data).is_empty() {
+                        ""
+                    } else {
+                        "; a field written one array per component is named by their list, \
+                         displacement = [\"…\", \"…\"]"
+                    }
                 ),
             ));
         };
@@ -543,8 +554,11 @@ fn check_finite(data: &Dataset, a: &DataArray, kind: Kind) -> Result<()> {
     ))
 }
 
+/// Whether `a` is named like one of `names`, or was joined from component arrays of such a
+/// name (`(u_x, u_y)` for `u`: [`crate::read::components::joined_base`]).
 fn named_like(a: &DataArray, names: &[&str]) -> bool {
     names.iter().any(|n| a.name.eq_ignore_ascii_case(n))
+        || crate::read::components::joined_base(a).is_some_and(|b| names.contains(&b.as_str()))
 }
 
 /// `3 components` / `1 component`.

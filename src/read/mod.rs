@@ -2,6 +2,7 @@
 //! ([`container`]: [`pvtu`], [`pvd`], [`legacy`] VTK, [`xdmf`]) and the scene file ([`scene`]).
 
 pub mod cell_type;
+pub mod components;
 pub mod container;
 pub mod decode;
 pub mod legacy;

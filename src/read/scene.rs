@@ -446,11 +446,61 @@ impl Reader<'_> {
             }
             None => None,
         };
+        let (displacement, displacement_parts) = self.names(t, path, "displacement", &[2, 3])?;
+        let (stress, stress_parts) = self.names(t, path, "stress", &[3, 4, 6, 9])?;
         Ok(FieldNames {
-            displacement: self.name(t, path, "displacement")?,
-            stress: self.name(t, path, "stress")?,
+            displacement,
+            displacement_parts,
+            stress,
+            stress_parts,
             stress_layout,
         })
+    }
+
+    /// An array name, or a list of one-component arrays (`counts` entries) joined into one
+    /// field ([`crate::read::components`]): the name to select and the parts (empty for one).
+    fn names(
+        &self,
+        t: &Table,
+        path: &str,
+        key: &str,
+        counts: &[usize],
+    ) -> Result<(Option<String>, Vec<String>)> {
+        let place = join(path, key);
+        let Some(Value::Array(items)) = t.get(key) else {
+            return Ok((self.name(t, path, key)?, Vec::new()));
+        };
+        let counts_text = counts
+            .iter()
+            .map(|c| c.to_string())
+            .collect::<Vec<_>>()
+            .join(" or ");
+        if !counts.contains(&items.len()) {
+            return Err(self.err(
+                &place,
+                format!(
+                    "a list of component arrays needs {counts_text} names, found {}",
+                    items.len()
+                ),
+            ));
+        }
+        let mut parts: Vec<String> = Vec::new();
+        for (i, v) in items.iter().enumerate() {
+            match v {
+                Value::String(s) if s.is_empty() => {
+                    return Err(self.err(format!("{place}[{i}]"), "must not be empty"));
+                }
+                Value::String(s) if parts.contains(s) => {
+                    return Err(self.err(
+                        format!("{place}[{i}]"),
+                        format!("\"{}\" is listed twice", s.escape_debug()),
+                    ));
+                }
+                Value::String(s) => parts.push(s.clone()),
+                v => return Err(self.wrong_type(&format!("{place}[{i}]"), "a string", v)),
+            }
+        }
+        Ok((Some(crate::read::components::joined_name(&parts)), parts))
     }
 
     fn estimate(&self, t: &Table, material: &Material) -> Result<Estimate> {
@@ -838,6 +888,7 @@ poisson_ratio = 0.3
                 displacement: Some("displacement".into()),
                 stress: Some("stress".into()),
                 stress_layout: Some(StressLayout::for_component_count(4).unwrap()),
+                ..Default::default()
             },
             body_force: Some([c(0.0), c(-1.0)]),
             tag_array: Some("boundary_tag".into()),
@@ -1274,11 +1325,29 @@ gap = "x^2/2"
         );
         assert_eq!(
             error_with("[fields]\ndisplacement = [\"u\"]\n"),
-            "scene.toml: fields.displacement: expected a string, found an array of 1 entries"
+            "scene.toml: fields.displacement: a list of component arrays needs 2 or 3 names, \
+             found 1"
         );
         assert_eq!(
             error_with("[fields]\nstress = \"\"\n"),
             "scene.toml: fields.stress: must not be empty"
+        );
+        assert_eq!(
+            error_with("[fields]\nstress = [\"a\", \"b\"]\n"),
+            "scene.toml: fields.stress: a list of component arrays needs 3 or 4 or 6 or 9 names, \
+             found 2"
+        );
+        assert_eq!(
+            error_with("[fields]\ndisplacement = [\"a\", \"a\"]\n"),
+            "scene.toml: fields.displacement[1]: \"a\" is listed twice"
+        );
+        assert_eq!(
+            error_with("[fields]\ndisplacement = [\"a\", \"\"]\n"),
+            "scene.toml: fields.displacement[1]: must not be empty"
+        );
+        assert_eq!(
+            error_with("[fields]\ndisplacement = [\"a\", 2]\n"),
+            "scene.toml: fields.displacement[1]: expected a string, found an integer (2)"
         );
         assert_eq!(
             error_with("[loads]\nbody_force = [0, 1, 2]\n"),
@@ -1610,6 +1679,24 @@ gap = "x^2/2"
             error_with("[fields]\nstress_layout = 4\n"),
             "scene.toml: fields.stress_layout: expected a string, found an integer (4)"
         );
+    }
+
+    #[test]
+    fn component_lists_name_the_joined_array() {
+        let scene = scene_with(
+            "[fields]\ndisplacement = [\"disp_x\", \"disp_y\"]\n\
+             stress = [\"sxx\", \"syy\", \"sxy\"]\n",
+        );
+        assert_eq!(
+            scene.fields.displacement.as_deref(),
+            Some("(disp_x, disp_y)")
+        );
+        assert_eq!(scene.fields.displacement_parts, ["disp_x", "disp_y"]);
+        assert_eq!(scene.fields.stress.as_deref(), Some("(sxx, syy, sxy)"));
+        assert_eq!(scene.fields.stress_parts, ["sxx", "syy", "sxy"]);
+        let one = scene_with("[fields]\ndisplacement = \"u\"\n");
+        assert_eq!(one.fields.displacement.as_deref(), Some("u"));
+        assert!(one.fields.displacement_parts.is_empty());
     }
 
     #[test]
