@@ -559,6 +559,35 @@ fn check_finite(data: &Dataset, a: &DataArray, kind: Kind) -> Result<()> {
 fn named_like(a: &DataArray, names: &[&str]) -> bool {
     names.iter().any(|n| a.name.eq_ignore_ascii_case(n))
         || crate::read::components::joined_base(a).is_some_and(|b| names.contains(&b.as_str()))
+        || aster_field(&a.name).is_some_and(|f| {
+            let field = if names == DISPLACEMENT_NAMES {
+                &ASTER_DISPLACEMENT[..]
+            } else if names == STRESS_NAMES {
+                &ASTER_STRESS[..]
+            } else {
+                &[][..]
+            };
+            field.iter().any(|n| f.eq_ignore_ascii_case(n))
+        })
+}
+
+/// code_aster's nodal displacement field (components DX, DY[, DZ]).
+const ASTER_DISPLACEMENT: [&str; 1] = ["DEPL"];
+/// code_aster's nodal stress fields (components SIXX, SIYY, SIZZ, SIXY, …: the layout follows
+/// from those `ComponentName`s).
+const ASTER_STRESS: [&str; 2] = ["SIEF_NOEU", "SIGM_NOEU"];
+
+/// The field part of a code_aster result's array name as the MED reader writes it, the result
+/// concept's name padded with `_` to 8 characters followed by the field (`RESU____DEPL` →
+/// `DEPL`, `stat____SIEF_NOEU` → `SIEF_NOEU`), or the whole name when it is shorter (`DEPL`).
+pub(super) fn aster_field(name: &str) -> Option<&str> {
+    match name.char_indices().nth(8) {
+        Some((i, _)) => name[..i]
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_')
+            .then(|| &name[i..]),
+        None => Some(name),
+    }
 }
 
 /// `3 components` / `1 component`.

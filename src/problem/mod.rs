@@ -384,6 +384,35 @@ mod tests {
     }
     impl Tap for VtuFile {}
 
+    /// code_aster results as ParaView's MED reader names them: the concept padded to 8
+    /// characters, then the field.
+    #[test]
+    fn code_aster_fields_are_found_by_their_field_names() {
+        let mut f = square();
+        f.point_data
+            .push(named(uniform("RESU____DEPL", &[1.0, 2.0]), &["DX", "DY"]));
+        f.point_data.push(named(
+            uniform("RESU____SIEF_NOEU", &[1.0, 2.0, 3.0, 4.0]),
+            &["SIXX", "SIYY", "SIZZ", "SIXY"],
+        ));
+        f.point_data.push(uniform("RESU____SIEQ_NOEU", &[5.0]));
+        let r = fields(f, "").unwrap();
+        assert_eq!(r.displacement_name.as_deref(), Some("RESU____DEPL"));
+        assert_eq!(r.displacement.as_ref().unwrap()[0], [1.0, 2.0]);
+        let (values, layout) = nodal(&r);
+        assert_eq!(layout, "xx,yy,zz,xy");
+        // [xx, xy, yx, yy]
+        assert_eq!(values[0], [1.0, 4.0, 4.0, 2.0]);
+        // Other names ending in DEPL are not taken.
+        let mut g = square();
+        g.point_data.push(uniform("my_long_name_DEPL", &[1.0, 2.0]));
+        assert!(fields(g, "").is_err());
+        let aster = super::fields::aster_field;
+        assert_eq!(aster("DEPL"), Some("DEPL"));
+        assert_eq!(aster("EVOL_NOLDEPL"), Some("DEPL"));
+        assert_eq!(aster("a-b-c-d-DEPL"), None);
+    }
+
     #[test]
     fn displacement_named_in_the_scene_wins() {
         let f = with_points(vec![uniform("w", &[3.0, 4.0])]);
