@@ -21,6 +21,9 @@ struct Motion {
     c: f64,
     s: f64,
     shift: [f64; 2],
+    /// Lengths are multiplied by this (a change of units): x ↦ k R x + shift, u ↦ k R u,
+    /// σ ↦ R σ Rᵀ, f ↦ R f / k, tractions ↦ R t, gaps ↦ k g.
+    scale: f64,
 }
 
 impl Motion {
@@ -30,6 +33,15 @@ impl Motion {
             c: a.cos(),
             s: a.sin(),
             shift,
+            scale: 1.0,
+        }
+    }
+
+    /// A change of units: lengths multiplied by `k`, no turn, no shift.
+    fn scaled(k: f64) -> Motion {
+        Motion {
+            scale: k,
+            ..Motion::new(0.0, [0.0, 0.0])
         }
     }
 
@@ -52,9 +64,9 @@ impl Motion {
     }
 
     /// A scene expression in the original coordinates, rewritten in the moved ones:
-    /// x ↦ c(x − x₀) + s(y − y₀), y ↦ −s(x − x₀) + c(y − y₀).
+    /// x ↦ (c(x − x₀) + s(y − y₀))/k, y ↦ (−s(x − x₀) + c(y − y₀))/k.
     fn expression(&self, e: &str) -> String {
-        let (c, s, [x0, y0]) = (self.c, self.s, self.shift);
+        let (c, s, [x0, y0]) = (self.c / self.scale, self.s / self.scale, self.shift);
         let bytes = e.as_bytes();
         let mut out = String::new();
         for (i, ch) in e.chars().enumerate() {
@@ -91,11 +103,12 @@ fn pair(v: &toml::Value) -> [f64; 2] {
 }
 
 impl Motion {
-    /// A vector datum [a, b] of the scene, in the moved frame: R (a, b) at the moved point.
-    fn vector(&self, v: &toml::Value) -> toml::Value {
+    /// A vector datum [a, b] of the scene, in the moved frame: `factor` R (a, b) at the moved
+    /// point (`factor` k for displacements, 1/k for body forces, 1 for tractions).
+    fn vector(&self, v: &toml::Value, factor: f64) -> toml::Value {
         let a = v.as_array().expect("a vector");
         let (x, y) = (self.expression(&text(&a[0])), self.expression(&text(&a[1])));
-        let (c, s) = (self.c, self.s);
+        let (c, s) = (factor * self.c, factor * self.s);
         toml::Value::Array(vec![
             toml::Value::String(format!("{c:e}*{x} - {s:e}*{y}")),
             toml::Value::String(format!("{s:e}*{x} + {c:e}*{y}")),
@@ -106,24 +119,25 @@ impl Motion {
     fn scene(&self, scene: &str) -> String {
         let mut v: toml::Table = toml::from_str(scene).unwrap();
         if let Some(f) = v.get_mut("loads").and_then(|l| l.get_mut("body_force")) {
-            *f = self.vector(f);
+            *f = self.vector(f, 1.0 / self.scale);
         }
         let point = |p: [f64; 2]| {
-            let q = self.turn(p);
+            let q = self.turn([self.scale * p[0], self.scale * p[1]]);
             toml::Value::try_from([q[0] + self.shift[0], q[1] + self.shift[1]]).unwrap()
         };
         let dir = |p: [f64; 2]| toml::Value::try_from(self.turn(p)).unwrap();
         for b in v["boundary"].as_array_mut().unwrap() {
             let b = b.as_table_mut().unwrap();
-            for key in ["displacement", "traction"] {
+            for (key, factor) in [("displacement", self.scale), ("traction", 1.0)] {
                 if let Some(d) = b.get_mut(key) {
-                    *d = self.vector(d);
+                    *d = self.vector(d, factor);
                 }
             }
-            for key in ["where", "gap"] {
-                if let Some(toml::Value::String(e)) = b.get_mut(key) {
-                    *e = self.expression(e);
-                }
+            if let Some(toml::Value::String(e)) = b.get_mut("where") {
+                *e = self.expression(e);
+            }
+            if let Some(g) = b.get_mut("gap") {
+                *g = toml::Value::String(format!("{:e}*{}", self.scale, self.expression(&text(g))));
             }
             if let Some(plane) = b.get_mut("obstacle").and_then(|o| o.get_mut("plane")) {
                 let (p, n) = (pair(&plane["point"]), pair(&plane["normal"]));
@@ -145,7 +159,7 @@ fn moved(case: &str, m: &Motion) -> (tempfile::TempDir, PathBuf) {
     let src = root().join("fixtures").join(case);
     let mut file = read_vtu(&src.join("solution.vtu")).unwrap();
     for p in &mut file.points {
-        let q = m.turn([p[0], p[1]]);
+        let q = m.turn([m.scale * p[0], m.scale * p[1]]);
         p[0] = q[0] + m.shift[0];
         p[1] = q[1] + m.shift[1];
     }
@@ -165,7 +179,7 @@ fn moved(case: &str, m: &Motion) -> (tempfile::TempDir, PathBuf) {
         let (n, v) = (a.components, &mut a.values);
         if a.name == u_name {
             for t in v.chunks_mut(n) {
-                let q = m.turn([t[0], t[1]]);
+                let q = m.turn([m.scale * t[0], m.scale * t[1]]);
                 t[0] = q[0];
                 t[1] = q[1];
             }
@@ -235,6 +249,49 @@ fn a_turned_file_gives_the_same_estimate_and_bound() {
         assert_eq!(b0.guaranteed, b1.guaranteed, "{case}");
         let (l0, l1) = (here.contact.active_length, there.contact.active_length);
         assert!(relative(l1, l0) < 1e-7, "{case}: active length {l0} → {l1}");
+    }
+}
+
+/// A change of units (metres to millimetres and back): the relative estimate and bound do not
+/// change, F scales with the area (k²), the contact zone with k. Every absolute tolerance of
+/// the geometry, the gaps and the flows must be relative to the problem's own lengths.
+#[test]
+fn a_file_in_other_units_gives_the_same_relative_estimate_and_bound() {
+    for case in [
+        "hertz_skfem_p2",
+        "hertz_ngsolve_p1",
+        // Expression data with kinks, a gap function, `normal = "body"`.
+        "manufactured_frictionless_p2_n08",
+        "quad_hertz_skfem_q2",
+    ] {
+        let here = run(&root().join("fixtures").join(case).join("solution.vtu"));
+        for k in [1e-3, 1e3] {
+            let (_dir, file) = moved(case, &Motion::scaled(k));
+            let there = run(&file);
+            let what = format!("{case} × {k:e}");
+            let (r0, r1) = (here.relative.unwrap(), there.relative.unwrap());
+            assert!(relative(r1, r0) < 1e-7, "{what}: relative {r0} → {r1}");
+            let (f0, f1) = (here.functional.total, there.functional.total / (k * k));
+            assert!(relative(f1, f0) < 1e-7, "{what}: F/k² {f0} → {f1}");
+            let (b0, b1) = (&here.bound, &there.bound);
+            let (x0, x1) = (b0.relative.unwrap(), b1.relative.unwrap());
+            assert!(
+                relative(x1, x0) < 1e-7,
+                "{what}: bound.relative {x0} → {x1}"
+            );
+            assert_eq!(b0.guaranteed, b1.guaranteed, "{what}");
+            let (l0, l1) = (here.contact.active_length, there.contact.active_length / k);
+            assert!(
+                relative(l1, l0) < 1e-7,
+                "{what}: active length/k {l0} → {l1}"
+            );
+            assert_eq!(
+                here.notes.len(),
+                there.notes.len(),
+                "{what}: {:?}",
+                there.notes
+            );
+        }
     }
 }
 
