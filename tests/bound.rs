@@ -929,3 +929,25 @@ fn a_quadrilateral_within_round_off_of_a_parallelogram_is_split() {
     assert!((e1 - e0).abs() <= 1e-6 * e0, "bound {e0} → {e1}");
     assert_eq!(b0.failed_hypotheses, b1.failed_hypotheses);
 }
+
+/// A side obstacle that touches the Hertz body exactly at its Dirichlet corner (−1, 1): the P2
+/// trace of the projected u_h crosses it next to that node, where the penetration and the
+/// lifted mid node's shape function vanish together. The lift must leave no penetration above
+/// round-off (its defining property, docs/design.md §6.2 "between nodes"): before, its
+/// refinement only halved the missing lift per round and left 4.8e-12 after 8 rounds, which
+/// made the bound "not guaranteed: u_h penetrates the obstacle".
+#[test]
+fn a_lift_next_to_an_active_end_node_closes_the_penetration() {
+    let side = "normal = \"obstacle\"\n\n[[boundary]]\nname = \"side\"\n\
+                where = \"x < 0 && y > 0.5001 && y < 0.9999\"\nkind = \"contact\"\n\
+                obstacle = { plane = { point = [-1.0, 0.0], normal = [1.0, 0.0] } }\n\
+                normal = \"obstacle\"\n";
+    let (_dir, file) = fixture_with_scene("hertz_skfem_p2", "normal = \"obstacle\"", side);
+    let (code, report, stderr) = estimate(&file, &["--quiet"]);
+    assert_eq!(code, 0, "{stderr}");
+    let r = report.unwrap();
+    // The file's trace crosses the side obstacle between nodes (by 5.4e-6 of |u_h| ≈ 0.01).
+    assert!(r.admissibility.penetration_max > 1e-6);
+    assert!(r.bound.guaranteed, "{:?}", r.bound.failed_hypotheses);
+    assert!(r.bound.failed_hypotheses.is_empty());
+}
