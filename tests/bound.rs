@@ -951,3 +951,36 @@ fn a_lift_next_to_an_active_end_node_closes_the_penetration() {
     assert!(r.bound.guaranteed, "{:?}", r.bound.failed_hypotheses);
     assert!(r.bound.failed_hypotheses.is_empty());
 }
+
+/// The side plane moved to x = −0.9 cuts off the Dirichlet corner (−1, 1), which u_D = (0,
+/// −0.01) holds in place: n·u_D − g = 0 − (−0.1) = 0.1 there (by hand), so no displacement meets
+/// both conditions. The report says so; touching (x = −1, the case above) is no conflict.
+#[test]
+fn dirichlet_data_inside_the_obstacle_are_named() {
+    for (plane, conflict) in [("-0.9", true), ("-1.0", false)] {
+        let side = format!(
+            "normal = \"obstacle\"\n\n[[boundary]]\nname = \"side\"\n\
+             where = \"x < 0 && y > 0.5001 && y < 0.9999\"\nkind = \"contact\"\n\
+             obstacle = {{ plane = {{ point = [{plane}, 0.0], normal = [1.0, 0.0] }} }}\n\
+             normal = \"obstacle\"\n"
+        );
+        let (_dir, file) = fixture_with_scene("hertz_skfem_p2", "normal = \"obstacle\"", &side);
+        let (code, report, stderr) = estimate(&file, &["--quiet"]);
+        assert_eq!(code, 0, "{stderr}");
+        let r = report.unwrap();
+        let warning = r.notes.iter().find(|n| n.contains("K_u is empty"));
+        if conflict {
+            let w = warning.expect("a warning");
+            assert!(
+                w.contains(
+                    "put 1 node that lies on a contact boundary inside the obstacle (the \
+                            deepest at (-1, 1), by 1.000e-1)"
+                ),
+                "{w}"
+            );
+            assert!(!r.bound.guaranteed);
+        } else {
+            assert!(warning.is_none(), "{warning:?}");
+        }
+    }
+}

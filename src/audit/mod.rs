@@ -44,6 +44,30 @@ impl Source {
     }
 }
 
+/// A warning when the scene's Dirichlet data put nodes it shares with a contact boundary inside
+/// the obstacle (beyond the round-off level of the displacement checks): then K_u is empty,
+/// no displacement is admissible and no bound can be guaranteed.
+fn dirichlet_inside_obstacle(ctx: &problem::Context, u: &[[f64; 2]]) -> Option<String> {
+    let tol = estimate::displacement_tolerance(
+        crate::field::max_norm(u),
+        crate::field::max_norm(&ctx.mesh.points),
+    );
+    let found = reconstruct::nodal::dirichlet_inside_obstacle(ctx, tol);
+    let &(p, excess) = found.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let x = ctx.mesh.points[p];
+    Some(format!(
+        "warning: the Dirichlet data put {} node{} that {} on a contact boundary inside the \
+         obstacle (the deepest at ({}, {}), by {:.3e}): no displacement meets both \
+         conditions (K_u is empty), so no bound can be guaranteed; check the scene's boundaries",
+        found.len(),
+        if found.len() == 1 { "" } else { "s" },
+        if found.len() == 1 { "lies" } else { "lie" },
+        x[0],
+        x[1],
+        excess
+    ))
+}
+
 /// Why the displacement was rebuilt from the stress.
 #[derive(Clone, Debug, PartialEq)]
 pub enum DisplacementReason {
@@ -944,6 +968,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     }
     notes.extend(boundaries.notes.iter().cloned());
     notes.extend(problem::free_rigid_motions(&ctx));
+    notes.extend(dirichlet_inside_obstacle(&ctx, u));
     if let Some(m) = &data.report.merge {
         notes.push(format!(
             "{}: {} node copies merged into {} nodes",

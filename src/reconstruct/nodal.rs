@@ -19,6 +19,39 @@ pub(super) fn boundary_nodes(
     scene: &Scene,
     edges: &[BoundaryEdge],
 ) -> (Vec<Option<[f64; 2]>>, Vec<Option<([f64; 2], f64)>>) {
+    let (dir, mut con) = boundary_nodes_both(mesh, topo, scene, edges);
+    for (c, d) in con.iter_mut().zip(&dir) {
+        if d.is_some() {
+            *c = None;
+        }
+    }
+    (dir, con)
+}
+
+/// The nodes held by Dirichlet data inside the obstacle of a contact boundary they also lie
+/// on: n·u_D − g > `tol` there, so no displacement meets both conditions (K_u is empty and no
+/// bound can hold). Each as (node, n·u_D − g).
+pub fn dirichlet_inside_obstacle(ctx: &crate::problem::Context, tol: f64) -> Vec<(usize, f64)> {
+    let (dir, con) = boundary_nodes_both(ctx.mesh, ctx.topo, ctx.scene, ctx.edges);
+    dir.iter()
+        .zip(&con)
+        .enumerate()
+        .filter_map(|(p, (d, c))| {
+            let (ud, (n, g)) = ((*d)?, (*c)?);
+            let excess = n[0] * ud[0] + n[1] * ud[1] - g;
+            (excess > tol).then_some((p, excess))
+        })
+        .collect()
+}
+
+/// [`boundary_nodes`] with the contact (direction, gap) kept at Dirichlet nodes too.
+#[allow(clippy::type_complexity)]
+fn boundary_nodes_both(
+    mesh: &Mesh,
+    topo: &Topology,
+    scene: &Scene,
+    edges: &[BoundaryEdge],
+) -> (Vec<Option<[f64; 2]>>, Vec<Option<([f64; 2], f64)>>) {
     let np = mesh.points.len();
     let mut dir = vec![None; np];
     let mut normal_sum = vec![[0.0f64; 2]; np];
@@ -60,9 +93,6 @@ pub(super) fn boundary_nodes(
     let mut con = vec![None; np];
     for p in 0..np {
         let Some(bi) = contact_of[p] else { continue };
-        if dir[p].is_some() {
-            continue;
-        }
         let BoundaryKind::Contact(spec) = &scene.boundaries[bi].kind else {
             continue;
         };
