@@ -475,7 +475,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     };
 
     progress.stage("reading the solution");
-    let vtu = read::container::read_solution(
+    let mut vtu = read::container::read_solution(
         &opts.file,
         &read::container::ReadOptions { step: opts.step },
     )?;
@@ -486,7 +486,6 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     let scene =
         find_scene(&opts.file, opts.scene.as_deref()).and_then(|path| scene::load_scene(&path));
     crate::limits::set_stage("reading the solution");
-    let mut vtu = vtu;
     let joined = match &scene {
         Ok(scene) => read::components::join(&mut vtu, scene)?,
         Err(_) => read::components::Joined::default(),

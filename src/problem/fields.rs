@@ -159,20 +159,20 @@ fn no_displacement(data: &Dataset, scene: &Scene) -> Error {
             "no displacement found (a point array named displacement, displacements, disp or u \
              with 2 or 3 components; point arrays: {}); set [fields] displacement = \"…\"{} in {}",
             list_arrays(&data.point_data),
-            list_hint(&data.point_data),
+            if has_component_arrays(&data.point_data) {
+                " (or the list of its component arrays, [\"…\", \"…\"])"
+            } else {
+                ""
+            },
             scene.file.display()
         ),
     )
 }
 
-/// `, or a list of its component arrays ["…", "…"]` when `arrays` hold two or more
-/// one-component arrays (a field written one array per component: `read::components`).
-fn list_hint(arrays: &[DataArray]) -> &'static str {
-    if arrays.iter().filter(|a| a.components == 1).count() >= 2 {
-        " (or the list of its component arrays, [\"…\", \"…\"])"
-    } else {
-        ""
-    }
+/// Whether `arrays` hold two or more one-component arrays: then the displacement may be written
+/// one array per component, and the errors say how a scene lists them (`read::components`).
+fn has_component_arrays(arrays: &[DataArray]) -> bool {
+    arrays.iter().filter(|a| a.components == 1).count() >= 2
 }
 
 /// The displacement's point array: named in the scene, or the one auto-detected candidate.
@@ -193,11 +193,11 @@ fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<Option<&'a
                     "no point array \"{}\" in {file}{cell} (point arrays: {}){}",
                     name.escape_debug(),
                     list_arrays(&data.point_data),
-                    if list_hint(&data.point_data).is_empty() {
-                        ""
-                    } else {
+                    if has_component_arrays(&data.point_data) {
                         "; a field written one array per component is named by their list, \
                          displacement = [\"…\", \"…\"]"
+                    } else {
+                        ""
                     }
                 ),
             ));
@@ -219,7 +219,10 @@ fn displacement_array<'a>(data: &'a Dataset, scene: &Scene) -> Result<Option<&'a
     let candidates: Vec<&DataArray> = data
         .point_data
         .iter()
-        .filter(|a| named_like(a, &DISPLACEMENT_NAMES) && (a.components == 2 || a.components == 3))
+        .filter(|a| {
+            named_like(a, &DISPLACEMENT_NAMES, &ASTER_DISPLACEMENT)
+                && (a.components == 2 || a.components == 3)
+        })
         .collect();
     match candidates[..] {
         [a] => Ok(Some(a)),
@@ -273,12 +276,12 @@ fn select_stress(data: &Dataset, scene: &Scene, notes: &mut Vec<String>) -> Resu
         let points: Vec<&DataArray> = data
             .point_data
             .iter()
-            .filter(|a| named_like(a, &STRESS_NAMES))
+            .filter(|a| named_like(a, &STRESS_NAMES, &ASTER_STRESS))
             .collect();
         let cells: Vec<&DataArray> = data
             .cell_data
             .iter()
-            .filter(|a| named_like(a, &STRESS_NAMES))
+            .filter(|a| named_like(a, &STRESS_NAMES, &ASTER_STRESS))
             .collect();
         let several = |section: &str, found: &[&DataArray]| {
             Error::input(
@@ -554,21 +557,13 @@ fn check_finite(data: &Dataset, a: &DataArray, kind: Kind) -> Result<()> {
     ))
 }
 
-/// Whether `a` is named like one of `names`, or was joined from component arrays of such a
-/// name (`(u_x, u_y)` for `u`: [`crate::read::components::joined_base`]).
-fn named_like(a: &DataArray, names: &[&str]) -> bool {
+/// Whether `a` is named like one of `names`, was joined from component arrays of such a name
+/// (`(u_x, u_y)` for `u`: [`crate::read::components::joined_base`]), or is a code_aster result
+/// of one of the fields `aster` ([`aster_field`]).
+fn named_like(a: &DataArray, names: &[&str], aster: &[&str]) -> bool {
     names.iter().any(|n| a.name.eq_ignore_ascii_case(n))
         || crate::read::components::joined_base(a).is_some_and(|b| names.contains(&b.as_str()))
-        || aster_field(&a.name).is_some_and(|f| {
-            let field = if names == DISPLACEMENT_NAMES {
-                &ASTER_DISPLACEMENT[..]
-            } else if names == STRESS_NAMES {
-                &ASTER_STRESS[..]
-            } else {
-                &[][..]
-            };
-            field.iter().any(|n| f.eq_ignore_ascii_case(n))
-        })
+        || aster_field(&a.name).is_some_and(|f| aster.iter().any(|n| f.eq_ignore_ascii_case(n)))
 }
 
 /// code_aster's nodal displacement field (components DX, DY[, DZ]).
