@@ -78,6 +78,8 @@ pub struct Summary {
     /// Fields written one array per component that `estimate` joins (docs/design.md §4.1
     /// "Component arrays"), one line each.
     pub joined: Vec<String>,
+    /// Straight triangles split at hanging nodes (docs/design.md §4.2 "Closure").
+    pub closure: Option<crate::closure::Closure>,
 }
 
 fn summarize(a: &DataArray) -> ArraySummary {
@@ -179,6 +181,7 @@ pub fn summary(file: &VtuFile, data: &Dataset, topo: &Topology) -> Summary {
         tag_arrays,
         bodies: crate::bodies::find(mesh).list,
         joined: Vec::new(),
+        closure: data.report.closure.clone(),
     }
 }
 
@@ -284,6 +287,22 @@ pub fn render(s: &Summary) -> String {
     }
     for j in &s.joined {
         let _ = writeln!(o, "  components  {j}");
+    }
+    if let Some(c) = &s.closure {
+        let _ = writeln!(
+            o,
+            "  hanging     {} hanging vertices: {} triangles split into {} (the mesh line counts \
+             the split)",
+            c.hanging_vertices, c.cells_split, c.children
+        );
+        for j in &c.jumps {
+            let _ = writeln!(
+                o,
+                "              \"{}\" differs from the split cells' trace there by up to {:.3e} \
+                 ({:.3e} relative)",
+                j.array, j.max, j.relative
+            );
+        }
     }
     if s.reoriented > 0 {
         let _ = writeln!(

@@ -6,6 +6,7 @@
 
 pub mod audit;
 pub mod bodies;
+pub mod closure;
 pub mod element;
 pub mod error;
 pub mod estimate;

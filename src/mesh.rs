@@ -192,6 +192,8 @@ pub struct MeshReport {
     pub reoriented: usize,
     /// Line cells lying on interior edges (file cell indices).
     pub interior_lines: Vec<usize>,
+    /// Cells split at hanging nodes ([`crate::closure`]).
+    pub closure: Option<crate::closure::Closure>,
 }
 
 /// Mesh, fields and the findings of building them.

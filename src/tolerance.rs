@@ -33,6 +33,14 @@ pub const CURVED_RELATIVE: f64 = 1e-6;
 /// area).
 pub const HANGING_NODE_RELATIVE: f64 = 1e-6;
 
+/// A point array's value at a hanging node (a vertex or mid node of the neighbours inside an
+/// edge of a split cell, `closure`) is taken to differ from the split cell's own trace there
+/// when they differ by more than this fraction of the array's largest magnitude. Evaluating the
+/// parent's polynomial at the node rounds at ~1e-15 of the values; a code that does not
+/// constrain hanging values, or a low-order output of a quadratic field, differs by the field's
+/// O(h²) variation, and float32 output by ~1e-7: those are kept as the cells' own copies.
+pub const HANGING_JUMP_RELATIVE: f64 = 1e-12;
+
 /// Longest chain of boundary edges followed along one edge in the hanging-node test: an edge
 /// of a non-conforming mesh is split into 2^levels pieces (one or two levels in practice).
 pub const HANGING_CHAIN: usize = 64;

@@ -126,6 +126,29 @@ pub fn from_loops(
 /// Builds the topology, or reports non-manifold edges, non-conforming P2 edges and line cells
 /// that are no edge of the mesh (with file cell indices).
 pub fn build(data: &Dataset) -> Result<Topology> {
+    build_with(data, false).map(|(topo, _)| topo)
+}
+
+/// A hanging edge: local edge `edge` of cell `cell` (from its node `a` to its node `b`, as
+/// [`Mesh::edge`] gives them), which its neighbours meet in pieces through the vertices
+/// `inner` (in order from a to b); `pieces[i]` is the neighbours' edge from the i-th to the
+/// (i + 1)-th point of a, inner…, b.
+#[derive(Clone, Debug)]
+pub struct Hanging {
+    pub cell: usize,
+    pub edge: usize,
+    pub inner: Vec<u32>,
+    pub pieces: Vec<u32>,
+}
+
+/// The topology of a mesh that may have hanging nodes, and its hanging edges (empty when the
+/// mesh is conforming); every other defect is reported as by [`build`]. For
+/// [`crate::closure`], which splits the cells with hanging edges.
+pub fn build_allowing_hanging(data: &Dataset) -> Result<(Topology, Vec<Hanging>)> {
+    build_with(data, true)
+}
+
+fn build_with(data: &Dataset, allow_hanging: bool) -> Result<(Topology, Vec<Hanging>)> {
     let err = |problem: String| Error::input(&data.path, "Cells", problem);
     let mesh: &Mesh = &data.mesh;
     let noun = if mesh.has_quads() {
@@ -178,10 +201,12 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         )));
     }
     let hanging = hanging_nodes(mesh, &edges, &edge_cells, &cell_edges, &boundary_edges);
-    if let Some(&(t, v, [a, b])) = hanging.first() {
+    if let Some(h) = hanging.first().filter(|_| !allow_hanging) {
+        let (t, v) = (h.cell, h.inner[0]);
+        let [a, b, _] = mesh.edge(t, h.edge);
         let mut cells: Vec<usize> = hanging
             .iter()
-            .map(|h| mesh.file_cell[h.0] as usize)
+            .map(|h| mesh.file_cell[h.cell] as usize)
             .collect();
         cells.sort_unstable();
         cells.dedup();
@@ -192,7 +217,8 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         return Err(err(format!(
             "hanging nodes: the mesh is not conforming (cells {} ({} in all) have an edge that \
              their neighbours meet in pieces; the first: the vertex at {} lies inside the edge \
-             {}–{} of cell {}); write the solution on a conforming mesh",
+             {}–{} of cell {}); fosls splits straight triangles at hanging nodes, not \
+             quadrilaterals or curved cells: write the solution on a conforming mesh",
             list_indices(&cells),
             cells.len(),
             p(v),
@@ -237,7 +263,7 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         )));
     }
 
-    Ok(Topology {
+    let topo = Topology {
         edges,
         edge_mid,
         edge_cells,
@@ -245,7 +271,8 @@ pub fn build(data: &Dataset) -> Result<Topology> {
         cell_edge_sign,
         boundary_edges,
         line_edge,
-    })
+    };
+    Ok((topo, hanging))
 }
 
 /// The hanging nodes of a non-conforming mesh (adaptive refinement that keeps "hanging"
@@ -255,7 +282,7 @@ pub fn build(data: &Dataset) -> Result<Topology> {
 /// it without sharing its nodes, and taken as a boundary it would be a traction-free crack
 /// (a guaranteed bound for another domain). The chain must reach b: a crack whose two faces
 /// are meshed differently also has vertices of one face inside edges of the other, but its
-/// faces share no node except at the tip. Returns (t, v₁, [a, b]) per such edge.
+/// faces share no node except at the tip. Returns the chain of each such edge.
 ///
 /// The edge's curve is x(s) = a + s(b − a) + 4s(1 − s)(m − (a + b)/2) (its mid node m, or the
 /// chord); a vertex w lies on it when the nearest point x(s*) (Newton on (x(s) − w)·x'(s) = 0
@@ -267,7 +294,7 @@ fn hanging_nodes(
     edge_cells: &[[u32; 2]],
     cell_edges: &[[u32; 4]],
     boundary: &[u32],
-) -> Vec<(usize, u32, [u32; 2])> {
+) -> Vec<Hanging> {
     // (vertex, boundary edge), sorted by vertex: the boundary edges at each vertex.
     let mut at: Vec<(u32, u32)> = boundary
         .iter()
@@ -335,7 +362,8 @@ fn hanging_nodes(
             s > tol && s < 1.0 - tol && dist2 <= tol * tol * len2
         };
         // Walk from a along boundary edges through vertices on the edge, towards b.
-        let (mut cur, mut came, mut first) = (a, e, None);
+        let (mut cur, mut came) = (a, e);
+        let (mut inner, mut pieces) = (Vec::new(), Vec::new());
         for _ in 0..HANGING_CHAIN {
             let mut next = None;
             for f in around(cur) {
@@ -343,7 +371,7 @@ fn hanging_nodes(
                     continue;
                 }
                 let w = other(f, cur);
-                if w == b && first.is_some() {
+                if w == b && !inner.is_empty() {
                     next = Some((f, w));
                     break;
                 }
@@ -355,11 +383,17 @@ fn hanging_nodes(
             let Some((f, w)) = next else {
                 break;
             };
+            pieces.push(f);
             if w == b {
-                found.push((t, first.expect("a vertex on the edge"), [a, b]));
+                found.push(Hanging {
+                    cell: t,
+                    edge: k,
+                    inner,
+                    pieces,
+                });
                 break;
             }
-            first.get_or_insert(w);
+            inner.push(w);
             (cur, came) = (w, f);
         }
     }
@@ -526,8 +560,9 @@ mod tests {
             e,
             "m.vtu: Cells: hanging nodes: the mesh is not conforming (cells 0 (1 in all) have \
              an edge that their neighbours meet in pieces; the first: the vertex at (1, 0.5) \
-             lies inside the edge (1, 0)–(1, 1) of cell 0); write the solution on a conforming \
-             mesh"
+             lies inside the edge (1, 0)–(1, 1) of cell 0); fosls splits straight triangles at \
+             hanging nodes, not quadrilaterals or curved cells: write the solution on a \
+             conforming mesh"
         );
         // Split at the hanging vertex, the same mesh is conforming.
         let mut split = cells.clone();

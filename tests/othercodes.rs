@@ -3,8 +3,8 @@
 //! (every element refined into linear cells, points shared only inside an element), from
 //! `reference/othercodes/`. Independent sources: the solvers' reactions and the contact
 //! widths in `expected.json`, and scikit-fem's solution of the same problem on the same mesh.
-//! And MFEM's output of a non-conforming mesh (`reference/nonconforming/`), refused naming a
-//! hanging vertex that VTK's reader finds too.
+//! And MFEM's output of a non-conforming quadrilateral mesh (`reference/nonconforming/`),
+//! refused naming a hanging vertex that VTK's reader finds too.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -399,16 +399,17 @@ fn point(s: &str) -> [f64; 2] {
 }
 
 #[test]
-fn mfem_non_conforming_output_is_refused_naming_a_hanging_vertex() {
-    // MFEM's ParaViewDataCollection of a non-conformingly refined mesh, in every form MFEM
-    // writes (reference/nonconforming/). Independent source: the hanging vertices VTK's reader
-    // finds in each file (expected.json).
+fn mfem_non_conforming_quadrilaterals_are_refused_naming_a_hanging_vertex() {
+    // MFEM's ParaViewDataCollection of a non-conformingly refined quadrilateral mesh, in every
+    // form MFEM writes (reference/nonconforming/). Independent source: the hanging vertices
+    // VTK's reader finds in each file (expected.json). The triangle forms are split at their
+    // hanging vertices and audited (tests/hanging.rs).
     let dir = root().join("fixtures").join("mfem_nonconforming");
     let exp: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
     let cases = exp["cases"].as_object().unwrap();
     assert_eq!(cases.len(), 8);
-    for (case, c) in cases {
+    for (case, c) in cases.iter().filter(|(case, _)| case.ends_with("_quad")) {
         let file = dir.join(c["entry"].as_str().unwrap());
         let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
             .arg("inspect")

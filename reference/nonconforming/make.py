@@ -113,8 +113,9 @@ MFEM's `ParaViewDataCollection` with high-order output on (Lagrange cells, each 
 own points) and off (each element refined into linear cells). Eight cases, `p{order}_{high|low}_{quad|tri}/`.
 
 The refined element's edge midpoints lie inside the edges of its unrefined neighbours: the mesh
-is not conforming, and fosls refuses it (exit status 2, the first hanging vertex named;
-docs/design.md §4.2, "Hanging nodes"). `expected.json` lists each case's hanging vertices (found
+is not conforming. fosls splits the triangles at their hanging vertices (docs/design.md §4.2,
+"Closure"; tests/hanging.rs) and refuses the quadrilateral forms (exit status 2, the first
+hanging vertex named; §4.2, "Hanging nodes"). `expected.json` lists each case's hanging vertices (found
 with VTK's reader: a cell corner inside another cell's edge) and the files' SHA-256 sums.
 """
 

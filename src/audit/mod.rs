@@ -490,7 +490,8 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         Ok(scene) => read::components::join(&mut vtu, scene)?,
         Err(_) => read::components::Joined::default(),
     };
-    let data = mesh::build(vtu)?;
+    // Straight triangles with hanging edges are split first (closure.rs).
+    let data = crate::closure::close(mesh::build(vtu)?)?;
     let topo = topology::build(&data)?;
     progress.done();
     lap("read", &mut stages);
@@ -968,6 +969,9 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     notes.extend(boundaries.notes.iter().cloned());
     notes.extend(problem::free_rigid_motions(&ctx));
     notes.extend(dirichlet_inside_obstacle(&ctx, u));
+    if let Some(c) = &data.report.closure {
+        notes.push(c.note());
+    }
     if let Some(m) = &data.report.merge {
         notes.push(format!(
             "{}: {} node copies merged into {} nodes",

@@ -216,7 +216,7 @@ fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
     limits::set_stage("reading the solution");
     let mut vtu = read::container::read_solution(file, &Default::default())?;
     read::components::detect(&mut vtu, &Default::default());
-    let data = mesh::build(vtu)?;
+    let data = fosls::closure::close(mesh::build(vtu)?)?;
     let topo = topology::build(&data)?;
     let name = file.file_name().map_or_else(
         || file.display().to_string(),
@@ -254,7 +254,7 @@ fn inspect_file(
     // so that the jumps of the joined fields show; the arrays listed are the file's own.
     let mut joined_vtu = vtu.clone();
     let joined = read::components::detect(&mut joined_vtu, &Default::default());
-    let data = mesh::build(joined_vtu)?;
+    let data = fosls::closure::close(mesh::build(joined_vtu)?)?;
     let topo = topology::build(&data)?;
     limits::set_stage("summarising");
     let mut summary = inspect::summary(&vtu, &data, &topo);

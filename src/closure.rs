@@ -1,0 +1,616 @@
+//! Conforming closure of hanging nodes (docs/design.md §4.2, "Hanging nodes").
+//!
+//! Adaptive codes that refine without closure (MFEM's non-conforming meshes) leave vertices of
+//! refined cells inside edges of their unrefined neighbours. The patch equilibration and the
+//! bound need a conforming mesh, so every straight triangle with such an edge is split into
+//! triangles that fan from a centre c, one per piece of its boundary: for the boundary points
+//! p₀, p₁, … (its vertices and the hanging vertices on its edges, counter-clockwise) the
+//! children are (pᵢ, pᵢ₊₁, c). When the hanging vertices lie on one edge, c is the opposite
+//! vertex (the pieces adjacent to it make no child: a bisection for one hanging vertex, which
+//! keeps the parent's angles and Korn constant); otherwise c is the centroid, a new point. On a
+//! P2 mesh the child's mid node on a boundary piece is the neighbour's mid node of that piece,
+//! and the nodes halfway to c are the parent's own edge mid nodes or new points.
+//!
+//! The children carry the parent's own field: a polynomial of degree ≤ 2 on a straight
+//! triangle is one on every child, and the new nodes take the parent's values there. At the
+//! hanging vertices and the pieces' mid nodes the merged value is the neighbours'; where the
+//! parent's trace differs from it by more than [`HANGING_JUMP_RELATIVE`] of the array's size
+//! (a code that does not constrain the hanging values, or a low-order output of a high-order
+//! field), a point array of 2 or 3 components keeps the parent's value as the children's own
+//! copy ([`Dataset::copies`]), as an exploded file of a discontinuous field does, so the bound
+//! takes the broken norm; other arrays take the neighbours' value there, and the report says
+//! by how much it differs. Quadrilaterals and curved triangles with hanging edges are refused
+//! (`topology::build`'s error): a quadrilateral cannot be split into quadrilaterals at an odd
+//! number of boundary points, and a child of a curved cell is no isoparametric P2 cell.
+
+use std::collections::BTreeMap;
+
+use crate::error::Result;
+use crate::geometry::{Family, MAX_NODES, Shape, triangle};
+use crate::mesh::{Dataset, Mesh, NONE};
+use crate::read::decode::Scalar;
+use crate::read::vtu::DataArray;
+use crate::tolerance::HANGING_JUMP_RELATIVE;
+use crate::topology::{self, Hanging};
+
+/// What the closure did, for the report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Closure {
+    /// Cells split (the parents).
+    pub cells_split: usize,
+    /// Triangles that replace them.
+    pub children: usize,
+    /// Hanging vertices (distinct).
+    pub hanging_vertices: usize,
+    /// Per point array whose parent traces differ from the merged values at the hanging
+    /// nodes by more than [`HANGING_JUMP_RELATIVE`]: the largest difference, absolute and
+    /// relative to the array's largest magnitude, and whether the parents' values were kept
+    /// as the children's own copies.
+    pub jumps: Vec<ClosureJump>,
+}
+
+/// The largest difference at the hanging nodes of one point array.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ClosureJump {
+    pub array: String,
+    pub max: f64,
+    pub relative: f64,
+    pub kept_as_copies: bool,
+}
+
+impl Closure {
+    /// The report's note.
+    pub fn note(&self) -> String {
+        let mut s = format!(
+            "hanging nodes: {} cells with {} hanging vertices on their edges were split into {} \
+             triangles at those vertices, carrying the same field (a conforming mesh, \
+             docs/design.md §4.2); the report's cells are those of the split, each with its \
+             file cell's index",
+            self.cells_split, self.hanging_vertices, self.children
+        );
+        for j in &self.jumps {
+            s.push_str(&format!(
+                "; '{}' differs from the neighbours' values at the hanging nodes by up to {:.3e} \
+                 ({:.1e} of its size){}",
+                j.array,
+                j.max,
+                j.relative,
+                if j.kept_as_copies {
+                    ": the split cells keep their own values (a discontinuous field, broken norm)"
+                } else {
+                    ": the split cells take the neighbours' values there"
+                }
+            ));
+        }
+        s
+    }
+}
+
+/// The dataset with every straight triangle that has a hanging edge split (module doc), or the
+/// dataset itself when the mesh is conforming. The errors are `topology::build`'s, also for
+/// hanging edges of quadrilaterals and curved triangles.
+pub fn close(data: Dataset) -> Result<Dataset> {
+    let (topo, hanging) = topology::build_allowing_hanging(&data)?;
+    if hanging.is_empty() {
+        return Ok(data);
+    }
+    let mesh = &data.mesh;
+    let splittable = |h: &Hanging| {
+        matches!(mesh.family[h.cell], Family::Tri3 | Family::Tri6)
+            && mesh.shape[h.cell] == Shape::Affine
+    };
+    if !hanging.iter().all(splittable) {
+        // The refusal names the first hanging vertex.
+        topology::build(&data)?;
+        unreachable!("topology::build refuses a mesh with hanging edges");
+    }
+    let mut by_cell: BTreeMap<usize, [Option<&Hanging>; 3]> = BTreeMap::new();
+    for h in &hanging {
+        by_cell.entry(h.cell).or_default()[h.edge] = Some(h);
+    }
+    let mut hanging_vertices: Vec<u32> = hanging.iter().flat_map(|h| h.inner.clone()).collect();
+    hanging_vertices.sort_unstable();
+    hanging_vertices.dedup();
+
+    let p2 = mesh.degree == 2;
+    let n_old = mesh.points.len();
+    let mut points = mesh.points.clone();
+    // New points' values per point array (tuple-major), appended after the old ones.
+    let mut added: Vec<Vec<f64>> = vec![Vec::new(); data.point_data.len()];
+    // Own values of the children at hanging nodes that differ from the merged ones: per point
+    // array, (child, node, deviation).
+    let mut own: Vec<Vec<(usize, u32, Vec<f64>)>> = vec![Vec::new(); data.point_data.len()];
+    let mut worst = vec![0.0f64; data.point_data.len()];
+    let size: Vec<f64> = data
+        .point_data
+        .iter()
+        .map(|a| a.values.iter().fold(0.0f64, |m, v| m.max(v.abs())))
+        .collect();
+    let copies_of = |name: &str| data.copies.iter().find(|c| c.name == name);
+
+    let mut cells = Vec::with_capacity(mesh.len() + 4 * by_cell.len());
+    let mut family = Vec::with_capacity(cells.capacity());
+    let mut parent = Vec::with_capacity(cells.capacity());
+    for t in 0..mesh.len() {
+        let Some(edges) = by_cell.get(&t) else {
+            cells.push(mesh.cells[t]);
+            family.push(mesh.family[t]);
+            parent.push(t);
+            continue;
+        };
+        let fam = mesh.family[t];
+        let nn = fam.nodes();
+        let nodes = mesh.nodes(t);
+        let x: Vec<[f64; 2]> = nodes.iter().map(|&n| mesh.points[n as usize]).collect();
+        // Reference coordinates of a point of the (straight) parent.
+        let (x0, x1, x2) = (x[0], x[1], x[2]);
+        let det = (x1[0] - x0[0]) * (x2[1] - x0[1]) - (x1[1] - x0[1]) * (x2[0] - x0[0]);
+        let reference = |p: [f64; 2]| {
+            let (dx, dy) = (p[0] - x0[0], p[1] - x0[1]);
+            [
+                (dx * (x2[1] - x0[1]) - dy * (x2[0] - x0[0])) / det,
+                ((x1[0] - x0[0]) * dy - (x1[1] - x0[1]) * dx) / det,
+            ]
+        };
+        // The parent's own value of array `i` at a point: its nodes' merged values plus its
+        // own copies' deviations.
+        let value = |i: usize, p: [f64; 2]| -> Vec<f64> {
+            let a = &data.point_data[i];
+            let phi = triangle::shape_values(nn, reference(p));
+            let rows = copies_of(&a.name).map(crate::mesh::CopyRows::new);
+            let mut v = vec![0.0; a.components];
+            for (j, &n) in nodes.iter().enumerate() {
+                let dev = rows.as_ref().map_or([0.0; 2], |r| r.deviation(t, n));
+                for (c, vc) in v.iter_mut().enumerate() {
+                    let d = if c < 2 { dev[c] } else { 0.0 };
+                    *vc += phi[j] * (a.values[n as usize * a.components + c] + d);
+                }
+            }
+            v
+        };
+        let mut new_point = |p: [f64; 2], points: &mut Vec<[f64; 2]>| -> u32 {
+            points.push(p);
+            for (i, a) in added.iter_mut().enumerate() {
+                a.extend(value(i, p));
+            }
+            (points.len() - 1) as u32
+        };
+        // Boundary points counter-clockwise, each with the mid node of the piece that follows.
+        let mut ring: Vec<(u32, u32)> = Vec::new();
+        let mut shared: Vec<u32> = Vec::new();
+        for (k, h) in edges.iter().enumerate() {
+            let [a, _, m] = mesh.edge(t, k);
+            match h {
+                None => ring.push((a, m)),
+                Some(h) => {
+                    let chain = std::iter::once(a).chain(h.inner.iter().copied());
+                    for (i, (v, &e)) in chain.zip(&h.pieces).enumerate() {
+                        let mid = if p2 { topo.edge_mid[e as usize] } else { NONE };
+                        ring.push((v, mid));
+                        // The parent's own vertex a is no hanging node.
+                        if i > 0 {
+                            shared.push(v);
+                        }
+                        if p2 {
+                            shared.push(mid);
+                        }
+                    }
+                }
+            }
+        }
+        // With hanging vertices on one edge only, the children fan from the opposite vertex
+        // (the bisection of a 2:1 refinement keeps the parent's angles, and so its Korn
+        // constant, better than a centroid); otherwise from the centroid, a new point.
+        let hanging_edges: Vec<usize> = (0..3).filter(|&k| edges[k].is_some()).collect();
+        let apex = (hanging_edges.len() == 1).then(|| nodes[(hanging_edges[0] + 2) % 3]);
+        let (c, centre) = match apex {
+            Some(v) => (v, mesh.points[v as usize]),
+            None => {
+                let centroid = [(x0[0] + x1[0] + x2[0]) / 3.0, (x0[1] + x1[1] + x2[1]) / 3.0];
+                (new_point(centroid, &mut points), centroid)
+            }
+        };
+        // The mid node halfway from a boundary point to the centre: the parent's own edge mid
+        // node when both are its vertices, else a new point.
+        let spokes: Vec<u32> = if p2 {
+            ring.iter()
+                .map(|&(v, _)| {
+                    if v == c {
+                        return NONE;
+                    }
+                    if apex.is_some()
+                        && let Some(k) = (0..3).find(|&k| {
+                            let [a, b, _] = mesh.edge(t, k);
+                            (a == v && b == c) || (a == c && b == v)
+                        })
+                    {
+                        return mesh.edge(t, k)[2];
+                    }
+                    let pv = mesh.points[v as usize];
+                    let half = [0.5 * (pv[0] + centre[0]), 0.5 * (pv[1] + centre[1])];
+                    new_point(half, &mut points)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let first_child = cells.len();
+        for i in 0..ring.len() {
+            let j = (i + 1) % ring.len();
+            if ring[i].0 == c || ring[j].0 == c {
+                continue;
+            }
+            let mut child = [NONE; MAX_NODES];
+            child[..3].copy_from_slice(&[ring[i].0, ring[j].0, c]);
+            if p2 {
+                child[3..6].copy_from_slice(&[ring[i].1, spokes[j], spokes[i]]);
+            }
+            cells.push(child);
+            family.push(fam);
+            parent.push(t);
+        }
+        // The neighbours' values at the hanging nodes against the parent's trace.
+        for (i, a) in data.point_data.iter().enumerate() {
+            for &v in &shared {
+                let mine = value(i, mesh.points[v as usize]);
+                let theirs = &a.values[v as usize * a.components..(v as usize + 1) * a.components];
+                let dev: Vec<f64> = mine.iter().zip(theirs).map(|(m, t)| m - t).collect();
+                let big = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+                if big > HANGING_JUMP_RELATIVE * size[i] {
+                    worst[i] = worst[i].max(big);
+                    for (child, nodes) in cells.iter().enumerate().skip(first_child) {
+                        if nodes.contains(&v) {
+                            own[i].push((child, v, dev.clone()));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    let children = cells.len() - (mesh.len() - by_cell.len());
+    let mut point_data = data.point_data.clone();
+    for (a, extra) in point_data.iter_mut().zip(&added) {
+        a.values.extend_from_slice(extra);
+    }
+    let cell_data = data
+        .cell_data
+        .iter()
+        .map(|a| DataArray {
+            values: parent
+                .iter()
+                .flat_map(|&t| {
+                    a.values[t * a.components..(t + 1) * a.components]
+                        .iter()
+                        .copied()
+                })
+                .collect(),
+            ..a.clone()
+        })
+        .collect();
+    // Own copies: the parents' rows carried to their children, plus the hanging nodes' own
+    // values of the arrays that jump there.
+    let mut jumps = Vec::new();
+    let mut copies: Vec<DataArray> = Vec::new();
+    for (i, a) in data.point_data.iter().enumerate() {
+        let c = a.components;
+        let kept = (2..=3).contains(&c) && !own[i].is_empty();
+        if worst[i] > 0.0 {
+            jumps.push(ClosureJump {
+                array: a.name.clone(),
+                max: worst[i],
+                relative: if size[i] > 0.0 {
+                    worst[i] / size[i]
+                } else {
+                    0.0
+                },
+                kept_as_copies: kept,
+            });
+        }
+        let old = copies_of(&a.name);
+        if old.is_none() && !kept {
+            continue;
+        }
+        let slot = 1 + c;
+        let row = MAX_NODES * slot;
+        let mut values = vec![0.0; cells.len() * row];
+        for (child, out) in values.chunks_exact_mut(row).enumerate() {
+            let rows = old.map(crate::mesh::CopyRows::new);
+            for (s, r) in cells[child].iter().zip(out.chunks_exact_mut(slot)) {
+                r[0] = f64::from(*s);
+                if *s == NONE || *s as usize >= n_old {
+                    continue;
+                }
+                if let Some(rows) = &rows {
+                    let d = rows.deviation(parent[child], *s);
+                    r[1..1 + c.min(2)].copy_from_slice(&d[..c.min(2)]);
+                }
+            }
+        }
+        if kept {
+            for (child, v, dev) in &own[i] {
+                let out = &mut values[child * row..(child + 1) * row];
+                if let Some(r) = out.chunks_exact_mut(slot).find(|r| r[0] == f64::from(*v)) {
+                    r[1..].copy_from_slice(dev);
+                }
+            }
+        }
+        copies.push(DataArray {
+            name: a.name.clone(),
+            scalar: Scalar::Float64,
+            components: row,
+            component_names: Vec::new(),
+            values,
+        });
+    }
+    // Arrays with copies but no point array of that name cannot occur (copies are made from
+    // point arrays); keep any others' rows carried to the children all the same.
+    for old in &data.copies {
+        if copies.iter().any(|c| c.name == old.name) {
+            continue;
+        }
+        let row = old.components;
+        copies.push(DataArray {
+            values: parent
+                .iter()
+                .flat_map(|&t| old.values[t * row..(t + 1) * row].iter().copied())
+                .collect(),
+            ..old.clone()
+        });
+    }
+
+    let closed = Mesh {
+        points,
+        degree: mesh.degree,
+        shape: parent.iter().map(|&t| mesh.shape[t]).collect(),
+        cells,
+        family,
+        lines: mesh.lines.clone(),
+        file_cell: parent.iter().map(|&t| mesh.file_cell[t]).collect(),
+        line_cell: mesh.line_cell.clone(),
+    };
+    let mut report = data.report.clone();
+    report.closure = Some(Closure {
+        cells_split: by_cell.len(),
+        children,
+        hanging_vertices: hanging_vertices.len(),
+        jumps,
+    });
+    Ok(Dataset {
+        path: data.path.clone(),
+        mesh: closed,
+        point_data,
+        cell_data,
+        line_data: data.line_data.clone(),
+        copies,
+        report,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh;
+    use crate::read::vtu::VtuFile;
+    use std::path::Path;
+
+    type Cells = Vec<(u8, Vec<u32>)>;
+
+    /// A dataset of `cells` (VTK type, nodes) with the point array "u" = `u(x)`.
+    fn dataset(
+        points: &[[f64; 2]],
+        cells: &[(u8, Vec<u32>)],
+        u: impl Fn([f64; 2]) -> [f64; 2],
+    ) -> Dataset {
+        let mut f = VtuFile::from_cells(
+            Path::new("m.vtu"),
+            points.iter().map(|p| [p[0], p[1], 0.0]).collect(),
+            cells,
+        );
+        f.point_data.push(DataArray {
+            name: "u".into(),
+            scalar: Scalar::Float64,
+            components: 2,
+            component_names: Vec::new(),
+            values: points.iter().flat_map(|&p| u(p)).collect(),
+        });
+        mesh::build(f).unwrap()
+    }
+
+    /// [0, 2] × [0, 1]: the left square in two P2 triangles, the right one in four, which meet
+    /// the left lower triangle's edge x = 1 in two pieces; nodes at the P2 positions.
+    fn hanging_p2() -> (Vec<[f64; 2]>, Cells) {
+        let mut points: Vec<[f64; 2]> = Vec::new();
+        let id = |p: [f64; 2], points: &mut Vec<[f64; 2]>| match points
+            .iter()
+            .position(|q| (q[0] - p[0]).abs() + (q[1] - p[1]).abs() < 1e-14)
+        {
+            Some(i) => i as u32,
+            None => {
+                points.push(p);
+                (points.len() - 1) as u32
+            }
+        };
+        let tris: [[[f64; 2]; 3]; 6] = [
+            [[0., 0.], [1., 0.], [1., 1.]],
+            [[0., 0.], [1., 1.], [0., 1.]],
+            [[1., 0.], [2., 0.], [2., 0.5]],
+            [[1., 0.], [2., 0.5], [1., 0.5]],
+            [[1., 0.5], [2., 0.5], [2., 1.]],
+            [[1., 0.5], [2., 1.], [1., 1.]],
+        ];
+        let mut cells = Vec::new();
+        for t in tris {
+            let mid = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+            let nodes = [
+                t[0],
+                t[1],
+                t[2],
+                mid(t[0], t[1]),
+                mid(t[1], t[2]),
+                mid(t[2], t[0]),
+            ];
+            cells.push((22u8, nodes.iter().map(|&p| id(p, &mut points)).collect()));
+        }
+        (points, cells)
+    }
+
+    /// A quadratic field: the children carry it exactly at every node, new or old.
+    fn quadratic(p: [f64; 2]) -> [f64; 2] {
+        let [x, y] = p;
+        [
+            1e-3 * x * x - 2e-4 * x * y + 3e-4,
+            5e-4 * y * y + 1e-4 * x - 2e-4 * x * y,
+        ]
+    }
+
+    #[test]
+    fn a_p2_triangle_is_split_about_its_centroid_at_its_hanging_vertex() {
+        let (points, cells) = hanging_p2();
+        let d = close(dataset(&points, &cells, quadratic)).unwrap();
+        // Bisected from the opposite vertex (0, 0) at the hanging vertex. Conforming now: the topology builds, with the 7 outer edges of the rectangle.
+        let topo = topology::build(&d).unwrap();
+        assert_eq!(topo.boundary_edges.len(), 7);
+        let c = d.report.closure.as_ref().unwrap();
+        assert_eq!((c.cells_split, c.children, c.hanging_vertices), (1, 2, 1));
+        assert!(c.jumps.is_empty(), "{:?}", c.jumps);
+        assert!(d.copies.is_empty());
+        // 5 cells kept + 2 children, the children with file cell 0; areas sum to the parent's.
+        assert_eq!(d.mesh.len(), 7);
+        let children: Vec<usize> = (0..7).filter(|&t| d.mesh.file_cell[t] == 0).collect();
+        assert_eq!(children.len(), 2);
+        assert!(children.iter().all(|&t| d.mesh.nodes(t)[..3].contains(&0)));
+        let area: f64 = children.iter().map(|&t| 0.5 * d.mesh.double_area(t)).sum();
+        assert!((area - 0.5).abs() < 1e-15, "{area}");
+        assert!(children.iter().all(|&t| d.mesh.double_area(t) > 0.0));
+        // Every node of the closed mesh holds the quadratic field (hand values at the points).
+        let u = &d.point_data[0];
+        for (i, &p) in d.mesh.points.iter().enumerate() {
+            let want = quadratic(p);
+            for (got, want) in u.values[2 * i..2 * i + 2].iter().zip(want) {
+                assert!((got - want).abs() < 1e-17, "node {i} at {p:?}");
+            }
+        }
+        // Mid nodes: at the midpoints of their edges.
+        for t in children {
+            let n = d.mesh.nodes(t);
+            for k in 0..3 {
+                let (a, b) = (
+                    d.mesh.points[n[k] as usize],
+                    d.mesh.points[n[(k + 1) % 3] as usize],
+                );
+                let m = d.mesh.points[n[3 + k] as usize];
+                assert!(
+                    (m[0] - 0.5 * (a[0] + b[0])).abs() + (m[1] - 0.5 * (a[1] + b[1])).abs() < 1e-15
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_value_off_the_parents_trace_is_kept_as_the_childrens_own_copy() {
+        // The hanging vertex (1, 0.5) is the parent's own mid node; the neighbours' mid node
+        // (1, 0.25) of the lower piece moved by δ: the child on that piece keeps the parent's
+        // trace there, δ below the merged value.
+        let (points, cells) = hanging_p2();
+        let v = points.iter().position(|p| *p == [1.0, 0.25]).unwrap() as u32;
+        let delta = [2e-5, -3e-5];
+        let d = close(dataset(&points, &cells, |p| {
+            let q = quadratic(p);
+            if p == [1.0, 0.25] {
+                [q[0] + delta[0], q[1] + delta[1]]
+            } else {
+                q
+            }
+        }))
+        .unwrap();
+        let c = d.report.closure.as_ref().unwrap();
+        assert_eq!(c.jumps.len(), 1);
+        assert!(c.jumps[0].kept_as_copies);
+        assert!((c.jumps[0].max - 3e-5).abs() < 1e-17, "{:?}", c.jumps);
+        assert_eq!(d.copies.len(), 1);
+        let rows = crate::mesh::CopyRows::new(&d.copies[0]);
+        let holders: Vec<usize> = (0..d.mesh.len())
+            .filter(|&t| d.mesh.file_cell[t] == 0 && d.mesh.nodes(t).contains(&v))
+            .collect();
+        assert_eq!(holders.len(), 1);
+        for t in holders {
+            let dev = rows.deviation(t, v);
+            assert!(
+                (dev[0] + delta[0]).abs() < 1e-17 && (dev[1] + delta[1]).abs() < 1e-17,
+                "{dev:?}"
+            );
+        }
+        // The neighbours keep the merged value as their own.
+        for t in (0..d.mesh.len()).filter(|&t| d.mesh.file_cell[t] != 0) {
+            assert_eq!(rows.deviation(t, v), [0.0; 2]);
+        }
+    }
+
+    #[test]
+    fn hanging_vertices_on_two_edges_fan_from_the_centroid() {
+        // The P1 triangle (0, 0), (1, 0), (0, 1) with the vertex (0.5, 0) of the two triangles
+        // below it and (0.5, 0.5) of the two beside it inside its edges: five boundary points,
+        // five children about the centroid (1/3, 1/3), the only new point.
+        let points = [
+            [0., 0.],
+            [1., 0.],
+            [0., 1.],
+            [0.5, 0.],
+            [0.5, -0.5],
+            [0.5, 0.5],
+            [1., 1.],
+        ];
+        let cells: Cells = [[0, 3, 4], [3, 1, 4], [1, 6, 5], [5, 6, 2], [0, 1, 2]]
+            .iter()
+            .map(|c| (5u8, c.to_vec()))
+            .collect();
+        let linear = |p: [f64; 2]| [1e-3 * p[0] - 2e-4 * p[1], 3e-4 * p[0] + 5e-4 * p[1]];
+        let d = close(dataset(&points, &cells, linear)).unwrap();
+        topology::build(&d).unwrap();
+        let c = d.report.closure.as_ref().unwrap();
+        assert_eq!((c.cells_split, c.children, c.hanging_vertices), (1, 5, 2));
+        assert_eq!(d.mesh.points.len(), points.len() + 1);
+        let centroid = d.mesh.points[points.len()];
+        assert!((centroid[0] - 1.0 / 3.0).abs() + (centroid[1] - 1.0 / 3.0).abs() < 1e-16);
+        let children: Vec<usize> = (0..d.mesh.len())
+            .filter(|&t| d.mesh.file_cell[t] == 4)
+            .collect();
+        assert_eq!(children.len(), 5);
+        let area: f64 = children.iter().map(|&t| 0.5 * d.mesh.double_area(t)).sum();
+        assert!((area - 0.5).abs() < 1e-15, "{area}");
+        let u = &d.point_data[0].values;
+        let want = linear(centroid);
+        assert!(
+            (u[2 * points.len()] - want[0]).abs() + (u[2 * points.len() + 1] - want[1]).abs()
+                < 1e-18
+        );
+    }
+
+    #[test]
+    fn quadrilaterals_with_hanging_edges_are_refused() {
+        let points = [
+            [0., 0.],
+            [1., 0.],
+            [1., 1.],
+            [0., 1.],
+            [2., 0.],
+            [2., 1.],
+            [1., 0.5],
+            [2., 0.5],
+        ];
+        let quads = vec![
+            (9u8, vec![0, 1, 2, 3]),
+            (9, vec![1, 4, 7, 6]),
+            (9, vec![6, 7, 5, 2]),
+        ];
+        let e = close(dataset(&points, &quads, quadratic))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("the vertex at (1, 0.5) lies inside the edge (1, 0)–(1, 1) of cell 0"),
+            "{e}"
+        );
+        assert!(e.contains("not quadrilaterals or curved cells"), "{e}");
+    }
+}

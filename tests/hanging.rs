@@ -1,0 +1,252 @@
+//! Meshes with hanging nodes (non-conforming adaptive refinement): the straight triangles with
+//! a hanging edge are split about their centroids (src/closure.rs, docs/design.md §4.2), and
+//! the audit runs on the closed mesh.
+//!
+//! * MFEM's output of a non-conforming triangle mesh (`fixtures/mfem_nonconforming/`, all four
+//!   triangle forms: P1/P2, Lagrange cells or refined linear cells) carrying the linear field
+//!   u = (1e-3 x + 2e-4 y, 1e-4 x − 3e-4 y): with Dirichlet data u on x = 0 and the tractions
+//!   σn of u on the other sides (by hand), u_h is the exact solution, so the bound is round-off
+//!   and the energy is the hand value ½ ∫ σ:ε.
+//! * The manufactured P2 n08 fixture with one interior cell refined into four P2 triangles that
+//!   carry the same polynomial: the same u_h on a non-conforming mesh, so the fixture's true
+//!   error (expected.json, from the exact solution) is the true error here too.
+
+mod common;
+
+use std::path::Path;
+
+use common::cli::{estimate, root};
+use fosls::read::vtu::{DataArray, read_vtu};
+use fosls::write::{Placement, write_vtu};
+
+/// The Lamé stress of the linear field's strain (plane strain, E = 1, ν = 0.3), by hand.
+fn mfem_stress() -> [f64; 3] {
+    let (e, nu) = (1.0, 0.3);
+    let lam = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let mu = e / (2.0 * (1.0 + nu));
+    let (exx, eyy, exy) = (1e-3, -3e-4, 0.5 * (2e-4 + 1e-4));
+    let tr = exx + eyy;
+    [
+        lam * tr + 2.0 * mu * exx,
+        lam * tr + 2.0 * mu * eyy,
+        2.0 * mu * exy,
+    ]
+}
+
+#[test]
+fn mfem_triangles_with_hanging_nodes_are_audited_exactly() {
+    let [sxx, syy, sxy] = mfem_stress();
+    let scene = format!(
+        "[material]\nyoungs_modulus = 1.0\npoisson_ratio = 0.3\nmodel = \"plane_strain\"\n\n\
+         [[boundary]]\nname = \"left\"\nwhere = \"1e-9 - x\"\nkind = \"dirichlet\"\n\
+         displacement = [\"2e-4*y\", \"-3e-4*y\"]\n\n\
+         [[boundary]]\nname = \"right\"\nwhere = \"x - 2 + 1e-9\"\nkind = \"neumann\"\n\
+         traction = [\"{sxx:e}\", \"{sxy:e}\"]\n\n\
+         [[boundary]]\nname = \"bottom\"\nwhere = \"1e-9 - y\"\nkind = \"neumann\"\n\
+         traction = [\"{:e}\", \"{:e}\"]\n\n\
+         [[boundary]]\nname = \"top\"\nwhere = \"y - 1 + 1e-9\"\nkind = \"neumann\"\n\
+         traction = [\"{sxy:e}\", \"{syy:e}\"]\n",
+        -sxy, -syy
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = dir.path().join("scene.toml");
+    std::fs::write(&scene_path, scene).unwrap();
+    // ½ ∫ σ:ε over the area 2.
+    let energy = sxx * 1e-3 + syy * -3e-4 + 2.0 * sxy * 1.5e-4;
+    let fixtures = root().join("fixtures/mfem_nonconforming");
+    for case in ["p1_high_tri", "p2_high_tri", "p1_low_tri", "p2_low_tri"] {
+        let file = fixtures.join(case).join(format!("{case}.pvd"));
+        let (code, r, err) = estimate(&file, &["--scene", scene_path.to_str().unwrap()]);
+        assert_eq!(code, 0, "{case}: {err}");
+        let r = r.unwrap();
+        assert!(
+            (r.energy - energy).abs() < 1e-12 * energy,
+            "{case}: {} vs {energy}",
+            r.energy
+        );
+        assert!(
+            r.bound.guaranteed,
+            "{case}: {:?}",
+            r.bound.failed_hypotheses
+        );
+        let rel = r.bound.relative.unwrap();
+        assert!(rel < 1e-10, "{case}: bound.relative {rel}");
+        let note = r
+            .notes
+            .iter()
+            .find(|n| n.starts_with("hanging nodes: "))
+            .unwrap();
+        assert!(note.contains("split into"), "{case}: {note}");
+        assert!(!note.contains("differs"), "{case}: {note}");
+    }
+}
+
+/// P2 shape functions at barycentric coordinates (VTK order: vertices, mids 01, 12, 20).
+fn p2(l: [f64; 3]) -> [f64; 6] {
+    [
+        l[0] * (2.0 * l[0] - 1.0),
+        l[1] * (2.0 * l[1] - 1.0),
+        l[2] * (2.0 * l[2] - 1.0),
+        4.0 * l[0] * l[1],
+        4.0 * l[1] * l[2],
+        4.0 * l[2] * l[0],
+    ]
+}
+
+/// `src` with its 2D cell `t` (a P2 triangle) refined into four P2 triangles whose nodes carry
+/// the parent's polynomial: every point array evaluated there, cell arrays copied.
+fn refine_one(src: &Path, out: &Path, pick: impl Fn(&[[f64; 3]]) -> bool) -> usize {
+    let mut f = read_vtu(src).unwrap();
+    let t = (0..f.cell_count())
+        .find(|&c| {
+            f.types[c] == 22
+                && pick(
+                    &f.cell(c)
+                        .iter()
+                        .map(|&n| f.points[n as usize])
+                        .collect::<Vec<_>>(),
+                )
+        })
+        .expect("a cell to refine");
+    let parent: Vec<u32> = f.cell(t).to_vec();
+    // Barycentric coordinates of the parent's nodes and of the children's nodes.
+    let node_l: [[f64; 3]; 6] = [
+        [1., 0., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [0.5, 0.5, 0.],
+        [0., 0.5, 0.5],
+        [0.5, 0., 0.5],
+    ];
+    let children: [[usize; 3]; 4] = [[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]];
+    let mut new_points: Vec<([f64; 3], u32)> = Vec::new();
+    let mut cells: Vec<Vec<u32>> = Vec::new();
+    for ch in children {
+        let mut nodes: Vec<u32> = ch.iter().map(|&i| parent[i]).collect();
+        for k in 0..3 {
+            let (a, b) = (node_l[ch[k]], node_l[ch[(k + 1) % 3]]);
+            let l = [
+                0.5 * (a[0] + b[0]),
+                0.5 * (a[1] + b[1]),
+                0.5 * (a[2] + b[2]),
+            ];
+            let id = match new_points.iter().find(|(q, _)| *q == l) {
+                Some(&(_, id)) => id,
+                None => {
+                    let phi = p2(l);
+                    let x: [f64; 3] = std::array::from_fn(|c| {
+                        (0..6)
+                            .map(|i| phi[i] * f.points[parent[i] as usize][c])
+                            .sum()
+                    });
+                    f.points.push(x);
+                    for a in &mut f.point_data {
+                        let nc = a.components;
+                        let v: Vec<f64> = (0..nc)
+                            .map(|c| {
+                                (0..6)
+                                    .map(|i| phi[i] * a.values[parent[i] as usize * nc + c])
+                                    .sum()
+                            })
+                            .collect();
+                        a.values.extend(v);
+                    }
+                    let id = (f.points.len() - 1) as u32;
+                    new_points.push((l, id));
+                    id
+                }
+            };
+            nodes.push(id);
+        }
+        cells.push(nodes);
+    }
+    // The parent becomes the first child; the others are appended with its cell data.
+    let mut connectivity = Vec::new();
+    let mut offsets = vec![0];
+    for c in 0..f.cell_count() {
+        let nodes = if c == t {
+            cells[0].clone()
+        } else {
+            f.cell(c).to_vec()
+        };
+        connectivity.extend(nodes);
+        offsets.push(connectivity.len());
+    }
+    for nodes in &cells[1..] {
+        connectivity.extend(nodes);
+        offsets.push(connectivity.len());
+        f.types.push(22);
+    }
+    f.connectivity = connectivity;
+    f.offsets = offsets;
+    f.cell_data = f
+        .cell_data
+        .iter()
+        .map(|a: &DataArray| {
+            let nc = a.components;
+            let mut values = a.values.clone();
+            for _ in 0..3 {
+                values.extend_from_slice(&a.values[t * nc..(t + 1) * nc]);
+            }
+            DataArray {
+                values,
+                ..a.clone()
+            }
+        })
+        .collect();
+    write_vtu(out, &f, Placement::AppendedRaw).unwrap();
+    t
+}
+
+#[test]
+fn one_refined_cell_of_the_manufactured_p2_mesh_keeps_the_bound_above_the_true_error() {
+    let case = root().join("fixtures/manufactured_frictionless_p2_n08");
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(case.join("expected.json")).unwrap())
+            .unwrap();
+    let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("solution.vtu");
+    std::fs::copy(case.join("scene.toml"), dir.path().join("scene.toml")).unwrap();
+    // An interior cell: every node strictly inside the unit square's bounding box.
+    let inside = |x: &[[f64; 3]]| {
+        x.iter()
+            .all(|p| p[0] > 0.2 && p[0] < 0.8 && p[1] > 0.2 && p[1] < 0.8)
+    };
+    refine_one(&case.join("solution.vtu"), &file, inside);
+    let (code, r, err) = estimate(&file, &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.unwrap();
+    let note = r
+        .notes
+        .iter()
+        .find(|n| n.starts_with("hanging nodes: "))
+        .expect("a closure note");
+    // The refined cell's three neighbours each get one hanging vertex (its mid nodes).
+    assert!(
+        note.starts_with("hanging nodes: 3 cells with 3 hanging vertices"),
+        "{note}"
+    );
+    assert!(!note.contains("differs"), "{note}");
+    let (c0, r0, e0) = estimate(&case.join("solution.vtu"), &[]);
+    assert!(c0 == 0 || c0 == 1, "{e0}");
+    let r0 = r0.unwrap();
+    let b0 = r0.bound.energy_error.unwrap();
+    // Guaranteed exactly when the conforming file's is (both hang on the uncertified Korn
+    // constants of the oscillation term of this non-polynomial body force).
+    assert_eq!(
+        r.bound.guaranteed, r0.bound.guaranteed,
+        "{:?}",
+        r.bound.failed_hypotheses
+    );
+    let b = r.bound.energy_error.unwrap();
+    assert!(b >= truth, "bound {b} below the true error {truth}");
+    assert!(
+        b <= 1.1 * b0,
+        "bound {b} against {b0} on the conforming mesh (true {truth})"
+    );
+    eprintln!(
+        "bound {b:.6e} (conforming {b0:.6e}), true {truth:.6e}: index {:.3}",
+        b / truth
+    );
+}
