@@ -379,7 +379,14 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
                 }
                 degree = f.degree();
                 let mut nodes = [NONE; MAX_NODES];
-                nodes[..n.len()].copy_from_slice(n);
+                match cell_type::node_order(t) {
+                    Some(order) => {
+                        for (slot, &i) in nodes.iter_mut().zip(order) {
+                            *slot = n[i];
+                        }
+                    }
+                    None => nodes[..n.len()].copy_from_slice(n),
+                }
                 cells.push(nodes);
                 family.push(f);
                 file_cell.push(c as u32);
@@ -398,10 +405,16 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
                 return Err(err(
                     &format!("cell {c}"),
                     format!(
-                        "has unsupported VTK cell type {t} ({}); fosls reads vertices, lines, \
-                         triangles and quadrilaterals, linear, quadratic and Lagrange of order \
-                         1 and 2 (VTK 1, 3, 5, 9, 21, 22, 23, 28, 68, 69, 70)",
-                        cell_type::name(t)
+                        "has unsupported VTK cell type {t} ({}{}); fosls reads vertices, \
+                         lines, triangles and quadrilaterals, linear, quadratic and Lagrange of \
+                         order 1 and 2, pixels and polygons of 3 or 4 vertices (VTK 1, 3, 5, 7, \
+                         8, 9, 21, 22, 23, 28, 68, 69, 70)",
+                        cell_type::name(t),
+                        if t == cell_type::POLYGON {
+                            format!(" of {} vertices", n.len())
+                        } else {
+                            String::new()
+                        }
                     ),
                 ));
             }

@@ -189,12 +189,21 @@ fn hanging_nodes_of_quadrilaterals() {
 
 #[test]
 fn unknown_cell_type() {
-    let f = square(&[(5, vec![0, 1, 2]), (7, vec![0, 1, 3, 2])]);
+    let f = square(&[(5, vec![0, 1, 2]), (7, vec![0, 1, 3, 2, 1])]);
     assert_eq!(
         refused("polygon.vtu", &to_bytes(&f, Placement::AppendedRaw)),
-        "cell 1: has unsupported VTK cell type 7 (VTK_POLYGON); fosls reads vertices, lines, \
-         triangles and quadrilaterals, linear, quadratic and Lagrange of order 1 and 2 (VTK 1, \
-         3, 5, 9, 21, 22, 23, 28, 68, 69, 70)"
+        "cell 1: has unsupported VTK cell type 7 (VTK_POLYGON of 5 vertices); fosls reads \
+         vertices, lines, triangles and quadrilaterals, linear, quadratic and Lagrange of order 1 \
+         and 2, pixels and polygons of 3 or 4 vertices (VTK 1, 3, 5, 7, 8, 9, 21, 22, 23, 28, 68, \
+         69, 70)"
+    );
+    let f = square(&[(5, vec![0, 1, 2]), (6, vec![0, 1, 2, 3])]);
+    assert_eq!(
+        refused("strip.vtu", &to_bytes(&f, Placement::AppendedRaw)),
+        "cell 1: has unsupported VTK cell type 6 (VTK_TRIANGLE_STRIP); fosls reads vertices, \
+         lines, triangles and quadrilaterals, linear, quadratic and Lagrange of order 1 and 2, \
+         pixels and polygons of 3 or 4 vertices (VTK 1, 3, 5, 7, 8, 9, 21, 22, 23, 28, 68, 69, \
+         70)"
     );
 }
 

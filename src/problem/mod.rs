@@ -413,6 +413,21 @@ mod tests {
         assert_eq!(aster("a-b-c-d-DEPL"), None);
     }
 
+    /// Kratos' names: `DISPLACEMENT` and the Voigt `CAUCHY_STRESS_VECTOR` (xx, yy, xy).
+    #[test]
+    fn kratos_fields_are_found_by_their_names() {
+        let mut f = square();
+        f.point_data.push(uniform("DISPLACEMENT", &[1.0, 2.0, 0.0]));
+        f.point_data
+            .push(uniform("CAUCHY_STRESS_VECTOR", &[1.0, 2.0, 3.0]));
+        let r = fields(f, "").unwrap();
+        assert_eq!(r.displacement_name.as_deref(), Some("DISPLACEMENT"));
+        let (values, layout) = nodal(&r);
+        assert_eq!(layout, "xx,yy,xy");
+        // [xx, xy, yx, yy]
+        assert_eq!(values[0], [1.0, 3.0, 3.0, 2.0]);
+    }
+
     #[test]
     fn displacement_named_in_the_scene_wins() {
         let f = with_points(vec![uniform("w", &[3.0, 4.0])]);

@@ -8,13 +8,17 @@
 //! 2→3 and 3→0), then the centre (VTK's `vtkHigherOrderQuadrilateral::PointIndexFromIJK`
 //! and `vtkHigherOrderTriangle` orderings). So for the orders read here every type maps to its
 //! family with the identity permutation; only the order of a Lagrange type has to be found,
-//! from its node count or its `HigherOrderDegrees` cell data.
+//! from its node count or its `HigherOrderDegrees` cell data. VTK_PIXEL (8) is a
+//! quadrilateral whose corners are listed in x-then-y order ([`node_order`]); VTK_POLYGON (7)
+//! of three or four vertices is a triangle or a quadrilateral.
 
 use crate::geometry::Family;
 
 pub const VERTEX: u8 = 1;
 pub const LINE: u8 = 3;
 pub const TRIANGLE: u8 = 5;
+pub const POLYGON: u8 = 7;
+pub const PIXEL: u8 = 8;
 pub const QUAD: u8 = 9;
 pub const QUADRATIC_EDGE: u8 = 21;
 pub const QUADRATIC_TRIANGLE: u8 = 22;
@@ -168,6 +172,13 @@ pub fn lagrange_order(t: u8, nodes: usize) -> Option<usize> {
     })
 }
 
+/// Where a cell of type `t` stores its family's nodes: `order[i]` is the file slot of node i,
+/// `None` for the identity. VTK_PIXEL (an axis-aligned rectangle, vtkImageData's cell) lists
+/// its corners in x-then-y order (0, 1, 3, 2 around the cell).
+pub fn node_order(t: u8) -> Option<&'static [usize]> {
+    (t == PIXEL).then_some(&[0, 1, 3, 2])
+}
+
 /// What a cell of type `t` with `nodes` nodes and (Lagrange types) order `order` is read as.
 pub fn kind(t: u8, nodes: usize, order: usize) -> Kind {
     match (t, order) {
@@ -176,7 +187,10 @@ pub fn kind(t: u8, nodes: usize, order: usize) -> Kind {
         (LAGRANGE_CURVE, 1 | 2) => Kind::Line,
         (TRIANGLE, _) | (LAGRANGE_TRIANGLE, 1) => Kind::Cell(Family::Tri3),
         (QUADRATIC_TRIANGLE, _) | (LAGRANGE_TRIANGLE, 2) => Kind::Cell(Family::Tri6),
-        (QUAD, _) | (LAGRANGE_QUADRILATERAL, 1) => Kind::Cell(Family::Quad4),
+        (QUAD | PIXEL, _) | (LAGRANGE_QUADRILATERAL, 1) => Kind::Cell(Family::Quad4),
+        // Polygons of three or four vertices (meshio's "polygon" blocks) are those cells.
+        (POLYGON, _) if nodes == 3 => Kind::Cell(Family::Tri3),
+        (POLYGON, _) if nodes == 4 => Kind::Cell(Family::Quad4),
         (QUADRATIC_QUAD, _) => Kind::Cell(Family::Quad8),
         (BIQUADRATIC_QUAD, _) | (LAGRANGE_QUADRILATERAL, 2) => Kind::Cell(Family::Quad9),
         _ if is_solid(t) => Kind::Solid,
@@ -220,6 +234,10 @@ mod tests {
             assert!(is_solid(t) && kind(t, 4, 1) == Kind::Solid, "{t}");
         }
         assert_eq!(kind(70, 9, 2), Kind::Cell(Family::Quad9));
+        assert_eq!(kind(PIXEL, 4, 0), Kind::Cell(Family::Quad4));
+        assert_eq!(kind(POLYGON, 3, 0), Kind::Cell(Family::Tri3));
+        assert_eq!(kind(POLYGON, 4, 0), Kind::Cell(Family::Quad4));
+        assert_eq!(kind(POLYGON, 5, 0), Kind::Unsupported);
         assert_eq!(kind(69, 10, 3), Kind::Unsupported);
     }
 }

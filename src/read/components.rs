@@ -36,7 +36,15 @@ pub const DISPLACEMENT_NAMES: [&str; 4] = ["displacement", "displacements", "dis
 
 /// Point- or cell-array names (compared case-insensitively) taken for the stress when
 /// `[fields] stress` is not given.
-pub const STRESS_NAMES: [&str; 5] = ["stress", "stresses", "sigma", "s", "cauchy_stress"];
+/// Kratos writes its 2D Voigt stress (xx, yy, xy) as `CAUCHY_STRESS_VECTOR`.
+pub const STRESS_NAMES: [&str; 6] = [
+    "stress",
+    "stresses",
+    "sigma",
+    "s",
+    "cauchy_stress",
+    "cauchy_stress_vector",
+];
 
 /// What [`join`] did: one note per joined group.
 #[derive(Clone, Debug, Default)]

@@ -1526,9 +1526,10 @@ fn assemble(
                         &tplace(),
                         format!(
                             "cell {cell} has unsupported VTK cell type {t} ({}); fosls reads \
-                             vertices (1), lines (3), triangles (5), quads (9), quadratic edges \
-                             (21), triangles (22) and quads (23, 28), and Lagrange curves, \
-                             triangles and quadrilaterals (68, 69, 70)",
+                             vertices (1), lines (3), triangles (5), polygons of 3 or 4 vertices \
+                             (7), pixels (8), quads (9), quadratic edges (21), triangles (22) and \
+                             quads (23, 28), and Lagrange curves, triangles and quadrilaterals \
+                             (68, 69, 70)",
                             cell_type::name(u8::try_from(t).unwrap_or(0))
                         ),
                     ));
