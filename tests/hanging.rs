@@ -79,6 +79,33 @@ fn mfem_triangles_with_hanging_nodes_are_audited_exactly() {
         assert!(note.contains("split into"), "{case}: {note}");
         assert!(!note.contains("differs"), "{case}: {note}");
     }
+    // The VTU output of the split mesh maps each cell to its file cell: MFEM's 7 Lagrange
+    // triangles, the two unrefined ones with a hanging vertex each bisected (9 cells).
+    let out = dir.path().join("out.vtu");
+    let file = fixtures.join("p2_high_tri/p2_high_tri.pvd");
+    let (code, _, err) = estimate(
+        &file,
+        &[
+            "--scene",
+            scene_path.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let written = read_vtu(&out).unwrap();
+    let map = written
+        .cell_data
+        .iter()
+        .find(|a| a.name == "file_cell")
+        .unwrap();
+    let mut count = [0usize; 7];
+    for &c in &map.values {
+        count[c as usize] += 1;
+    }
+    let mut sorted = count;
+    sorted.sort_unstable();
+    assert_eq!(sorted, [1, 1, 1, 1, 1, 2, 2], "{count:?}");
 }
 
 /// P2 shape functions at barycentric coordinates (VTK order: vertices, mids 01, 12, 20).

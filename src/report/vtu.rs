@@ -19,6 +19,7 @@
 //! | `bound_squared` (only with a bound) | the cell's share of R² in the bound (docs/design.md §6.2: (η'_PS,T + (η_osc,T + η_as,T + η_tr,T)/√c_min)², units of \|\|\|·\|\|\|²; summed over the halves of a quadrilateral, §6.3) |
 //! | `marked` (Int, only when marking) | 1 if marked, else 0 |
 //! | `contact_state` (Int) | −1 on triangles and off Γ_C; on contact lines 0 separated, 1 stick, 2 slip |
+//! | `file_cell` (Int, only when cells were split at hanging nodes, `crate::closure`) | the index in the input file of the cell T comes from; on lines, the line's |
 //!
 //! The cell arrays of the input follow, with their values on the triangles and on the lines
 //! (an input array whose name clashes with one above gets the suffix `_input`). Fields
@@ -160,6 +161,18 @@ pub fn output_file(
             .chain((0..nl).map(|l| state_code(est.contact.line_state.get(l).copied().flatten())))
             .collect(),
     ));
+    if data.report.closure.is_some() {
+        let mesh = &data.mesh;
+        ours.push(scalar_array(
+            "file_cell",
+            Scalar::Int32,
+            mesh.file_cell
+                .iter()
+                .chain(&mesh.line_cell)
+                .map(|&c| f64::from(c))
+                .collect(),
+        ));
+    }
     file.cell_data = ours;
 
     // The input's cell arrays: triangle part, then line part (zeros if it is missing).
@@ -173,7 +186,7 @@ pub fn output_file(
             }
             _ => values.resize((nt + nl) * w, 0.0),
         }
-        let name = if ARRAYS.contains(&a.name.as_str()) {
+        let name = if ARRAYS.contains(&a.name.as_str()) || a.name == "file_cell" {
             format!("{}_input", a.name)
         } else {
             a.name.clone()
