@@ -31,7 +31,7 @@ use crate::mesh::{Dataset, Mesh, NONE};
 use crate::read::decode::Scalar;
 use crate::read::vtu::DataArray;
 use crate::tolerance::HANGING_JUMP_RELATIVE;
-use crate::topology::{self, Hanging};
+use crate::topology::{self, Hanging, Topology};
 
 /// What the closure did, for the report.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -87,12 +87,13 @@ impl Closure {
 }
 
 /// The dataset with every straight triangle that has a hanging edge split (module doc), or the
-/// dataset itself when the mesh is conforming. The errors are `topology::build`'s, also for
-/// hanging edges of quadrilaterals and curved triangles.
-pub fn close(data: Dataset) -> Result<Dataset> {
+/// dataset itself when the mesh is conforming, with its topology (built once for a conforming
+/// mesh). The errors are `topology::build`'s, also for hanging edges of quadrilaterals and
+/// curved triangles.
+pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
     let (topo, hanging) = topology::build_allowing_hanging(&data)?;
     if hanging.is_empty() {
-        return Ok(data);
+        return Ok((data, topo));
     }
     let mesh = &data.mesh;
     let splittable = |h: &Hanging| {
@@ -376,7 +377,7 @@ pub fn close(data: Dataset) -> Result<Dataset> {
         hanging_vertices: hanging_vertices.len(),
         jumps,
     });
-    Ok(Dataset {
+    let closed = Dataset {
         path: data.path.clone(),
         mesh: closed,
         point_data,
@@ -384,7 +385,9 @@ pub fn close(data: Dataset) -> Result<Dataset> {
         line_data: data.line_data.clone(),
         copies,
         report,
-    })
+    };
+    let topo = topology::build(&closed)?;
+    Ok((closed, topo))
 }
 
 #[cfg(test)]
@@ -467,9 +470,9 @@ mod tests {
     #[test]
     fn a_p2_triangle_is_split_about_its_centroid_at_its_hanging_vertex() {
         let (points, cells) = hanging_p2();
-        let d = close(dataset(&points, &cells, quadratic)).unwrap();
-        // Bisected from the opposite vertex (0, 0) at the hanging vertex. Conforming now: the topology builds, with the 7 outer edges of the rectangle.
-        let topo = topology::build(&d).unwrap();
+        let (d, topo) = close(dataset(&points, &cells, quadratic)).unwrap();
+        // Bisected from the opposite vertex (0, 0) at the hanging vertex. Conforming now: the
+        // topology builds, with the 7 outer edges of the rectangle.
         assert_eq!(topo.boundary_edges.len(), 7);
         let c = d.report.closure.as_ref().unwrap();
         assert_eq!((c.cells_split, c.children, c.hanging_vertices), (1, 2, 1));
@@ -515,7 +518,7 @@ mod tests {
         let (points, cells) = hanging_p2();
         let v = points.iter().position(|p| *p == [1.0, 0.25]).unwrap() as u32;
         let delta = [2e-5, -3e-5];
-        let d = close(dataset(&points, &cells, |p| {
+        let (d, _) = close(dataset(&points, &cells, |p| {
             let q = quadratic(p);
             if p == [1.0, 0.25] {
                 [q[0] + delta[0], q[1] + delta[1]]
@@ -566,8 +569,7 @@ mod tests {
             .map(|c| (5u8, c.to_vec()))
             .collect();
         let linear = |p: [f64; 2]| [1e-3 * p[0] - 2e-4 * p[1], 3e-4 * p[0] + 5e-4 * p[1]];
-        let d = close(dataset(&points, &cells, linear)).unwrap();
-        topology::build(&d).unwrap();
+        let (d, _) = close(dataset(&points, &cells, linear)).unwrap();
         let c = d.report.closure.as_ref().unwrap();
         assert_eq!((c.cells_split, c.children, c.hanging_vertices), (1, 5, 2));
         assert_eq!(d.mesh.points.len(), points.len() + 1);

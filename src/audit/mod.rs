@@ -491,8 +491,7 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
         Err(_) => read::components::Joined::default(),
     };
     // Straight triangles with hanging edges are split first (closure.rs).
-    let data = crate::closure::close(mesh::build(vtu)?)?;
-    let topo = topology::build(&data)?;
+    let (data, topo) = crate::closure::close(mesh::build(vtu)?)?;
     progress.done();
     lap("read", &mut stages);
 

@@ -9,7 +9,7 @@ use std::time::Duration;
 use clap::{Parser, Subcommand};
 
 use fosls::read::container::StepChoice;
-use fosls::{Error, inspect, limits, mesh, read, topology, write};
+use fosls::{Error, inspect, limits, mesh, read, write};
 
 /// Audit finite element solutions of elastic contact problems with the FOSLS functional.
 #[derive(Debug, Parser)]
@@ -216,8 +216,7 @@ fn scene_file(file: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
     limits::set_stage("reading the solution");
     let mut vtu = read::container::read_solution(file, &Default::default())?;
     read::components::detect(&mut vtu, &Default::default());
-    let data = fosls::closure::close(mesh::build(vtu)?)?;
-    let topo = topology::build(&data)?;
+    let (data, topo) = fosls::closure::close(mesh::build(vtu)?)?;
     let name = file.file_name().map_or_else(
         || file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -254,8 +253,7 @@ fn inspect_file(
     // so that the jumps of the joined fields show; the arrays listed are the file's own.
     let mut joined_vtu = vtu.clone();
     let joined = read::components::detect(&mut joined_vtu, &Default::default());
-    let data = fosls::closure::close(mesh::build(joined_vtu)?)?;
-    let topo = topology::build(&data)?;
+    let (data, topo) = fosls::closure::close(mesh::build(joined_vtu)?)?;
     limits::set_stage("summarising");
     let mut summary = inspect::summary(&vtu, &data, &topo);
     summary.joined = joined.notes;
