@@ -25,7 +25,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::geometry::{Family, MAX_NODES, Shape, triangle};
 use crate::mesh::{Dataset, Mesh, NONE};
 use crate::read::decode::Scalar;
@@ -103,7 +103,12 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
     if !hanging.iter().all(splittable) {
         // The refusal names the first hanging vertex.
         topology::build(&data)?;
-        unreachable!("topology::build refuses a mesh with hanging edges");
+        return Err(Error::input(
+            &data.path,
+            "Cells",
+            "hanging nodes on quadrilaterals or curved triangles: write the solution on a \
+             conforming mesh",
+        ));
     }
     let mut by_cell: BTreeMap<usize, [Option<&Hanging>; 3]> = BTreeMap::new();
     for h in &hanging {
