@@ -594,6 +594,96 @@ mod tests {
         );
     }
 
+    /// Random red refinements of a structured P1 mesh (seeded): every unrefined cell next to
+    /// refined ones gets hanging vertices on one, two or three edges. The closure must give a
+    /// conforming mesh of the same area that carries the same linear field, without jumps.
+    #[test]
+    fn random_red_refinements_close_to_conforming_meshes() {
+        let n = 6;
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let linear = |p: [f64; 2]| [1e-3 * p[0] - 2e-4 * p[1] + 1e-4, 3e-4 * p[0] + 5e-4 * p[1]];
+        for round in 0..20 {
+            let h = 1.0 / n as f64;
+            let mut tris: Vec<[[f64; 2]; 3]> = Vec::new();
+            for j in 0..n {
+                for i in 0..n {
+                    let p = |a: usize, b: usize| [(i + a) as f64 * h, (j + b) as f64 * h];
+                    tris.push([p(0, 0), p(1, 0), p(1, 1)]);
+                    tris.push([p(0, 0), p(1, 1), p(0, 1)]);
+                }
+            }
+            let mut fine = Vec::new();
+            let mut refined = 0;
+            for t in tris {
+                if next() % 3 == 0 {
+                    refined += 1;
+                    let m = |a: [f64; 2], b: [f64; 2]| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+                    let (m01, m12, m20) = (m(t[0], t[1]), m(t[1], t[2]), m(t[2], t[0]));
+                    fine.extend([
+                        [t[0], m01, m20],
+                        [m01, t[1], m12],
+                        [m20, m12, t[2]],
+                        [m01, m12, m20],
+                    ]);
+                } else {
+                    fine.push(t);
+                }
+            }
+            let mut points: Vec<[f64; 2]> = Vec::new();
+            let mut cells: Cells = Vec::new();
+            for t in &fine {
+                let ids = t.map(|p| match points.iter().position(|q| *q == p) {
+                    Some(i) => i as u32,
+                    None => {
+                        points.push(p);
+                        (points.len() - 1) as u32
+                    }
+                });
+                cells.push((5, ids.to_vec()));
+            }
+            let (d, topo) = close(dataset(&points, &cells, linear)).unwrap();
+            let area: f64 = (0..d.mesh.len()).map(|t| 0.5 * d.mesh.double_area(t)).sum();
+            assert!((area - 1.0).abs() < 1e-13, "round {round}: area {area}");
+            assert!((0..d.mesh.len()).all(|t| d.mesh.double_area(t) > 0.0));
+            // The outer boundary only: 4n pieces where no refined cell touches it, more where.
+            let boundary: f64 = topo
+                .boundary_edges
+                .iter()
+                .map(|&e| {
+                    let [a, b] = topo.edges[e as usize];
+                    crate::geometry::dist2(d.mesh.points[a as usize], d.mesh.points[b as usize])
+                        .sqrt()
+                })
+                .sum();
+            assert!(
+                (boundary - 4.0).abs() < 1e-12,
+                "round {round}: boundary length {boundary}"
+            );
+            let u = &d.point_data[0].values;
+            for (i, &p) in d.mesh.points.iter().enumerate() {
+                let want = linear(p);
+                assert!(
+                    (u[2 * i] - want[0]).abs() + (u[2 * i + 1] - want[1]).abs() < 1e-18,
+                    "round {round}: node {i}"
+                );
+            }
+            if let Some(c) = &d.report.closure {
+                assert!(c.jumps.is_empty(), "round {round}: {:?}", c.jumps);
+            } else {
+                assert!(
+                    refined == 0 || refined == 2 * n * n,
+                    "round {round}: nothing split"
+                );
+            }
+        }
+    }
+
     #[test]
     fn quadrilaterals_with_hanging_edges_are_refused() {
         let points = [
