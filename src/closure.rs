@@ -27,36 +27,11 @@ use std::collections::BTreeMap;
 
 use crate::error::{Error, Result};
 use crate::geometry::{Family, MAX_NODES, Shape, triangle};
-use crate::mesh::{Dataset, Mesh, NONE};
+use crate::mesh::{Closure, ClosureJump, Dataset, Mesh, NONE};
 use crate::read::decode::Scalar;
 use crate::read::vtu::DataArray;
 use crate::tolerance::HANGING_JUMP_RELATIVE;
 use crate::topology::{self, Hanging, Topology};
-
-/// What the closure did, for the report.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Closure {
-    /// Cells split (the parents).
-    pub cells_split: usize,
-    /// Triangles that replace them.
-    pub children: usize,
-    /// Hanging vertices (distinct).
-    pub hanging_vertices: usize,
-    /// Per point array whose parent traces differ from the merged values at the hanging
-    /// nodes by more than [`HANGING_JUMP_RELATIVE`]: the largest difference, absolute and
-    /// relative to the array's largest magnitude, and whether the parents' values were kept
-    /// as the children's own copies.
-    pub jumps: Vec<ClosureJump>,
-}
-
-/// The largest difference at the hanging nodes of one point array.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct ClosureJump {
-    pub array: String,
-    pub max: f64,
-    pub relative: f64,
-    pub kept_as_copies: bool,
-}
 
 impl Closure {
     /// The report's note.

@@ -79,7 +79,7 @@ pub struct Summary {
     /// "Component arrays"), one line each.
     pub joined: Vec<String>,
     /// Straight triangles split at hanging nodes (docs/design.md §4.2 "Closure").
-    pub closure: Option<crate::closure::Closure>,
+    pub closure: Option<crate::mesh::Closure>,
 }
 
 fn summarize(a: &DataArray) -> ArraySummary {

@@ -179,6 +179,31 @@ pub struct Jump {
     pub relative: f64,
 }
 
+/// What the closure of hanging nodes did ([`crate::closure`]), for the report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Closure {
+    /// Cells split (the parents).
+    pub cells_split: usize,
+    /// Triangles that replace them.
+    pub children: usize,
+    /// Hanging vertices (distinct).
+    pub hanging_vertices: usize,
+    /// Per point array whose parent traces differ from the merged values at the hanging
+    /// nodes by more than [`crate::tolerance::HANGING_JUMP_RELATIVE`]: the largest difference, absolute and
+    /// relative to the array's largest magnitude, and whether the parents' values were kept
+    /// as the children's own copies.
+    pub jumps: Vec<ClosureJump>,
+}
+
+/// The largest difference at the hanging nodes of one point array.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ClosureJump {
+    pub array: String,
+    pub max: f64,
+    pub relative: f64,
+    pub kept_as_copies: bool,
+}
+
 /// What building the mesh found or changed, for the report.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct MeshReport {
@@ -193,7 +218,7 @@ pub struct MeshReport {
     /// Line cells lying on interior edges (file cell indices).
     pub interior_lines: Vec<usize>,
     /// Cells split at hanging nodes ([`crate::closure`]).
-    pub closure: Option<crate::closure::Closure>,
+    pub closure: Option<Closure>,
 }
 
 /// Mesh, fields and the findings of building them.
