@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Fixture family `mfem_nonconforming`: MFEM's own output of a non-conformingly refined mesh
-(hanging vertices), which fosls refuses (docs/design.md §4.2, "Hanging nodes").
+(hanging vertices): fosls splits the triangle forms at them and refuses the quadrilateral forms
+(docs/design.md §4.2, "Hanging nodes" and "Closure").
 
     reference/.venv/bin/python reference/nonconforming/make.py           # (re)write the fixtures
     reference/.venv/bin/python reference/nonconforming/make.py --check   # compare with the committed files
@@ -11,7 +12,8 @@ temporary directory and compares them byte for byte when that venv exists (MFEM'
 deterministic); without it, it checks the committed files against the SHA-256 sums in
 fixtures/mfem_nonconforming/expected.json, and in both cases that every case's mesh has the
 hanging vertices its construction gives (read with VTK: a vertex of one cell inside an edge of
-another), which is what the test (`tests/othercodes.rs`) expects fosls to name.
+another), which is what the test (`tests/othercodes.rs`) expects fosls to name for the
+quadrilateral forms.
 """
 
 from __future__ import annotations
