@@ -277,3 +277,91 @@ fn one_refined_cell_of_the_manufactured_p2_mesh_keeps_the_bound_above_the_true_e
         b / truth
     );
 }
+
+#[test]
+fn a_split_file_cell_is_ranked_marked_and_summed_as_one() {
+    let case = root().join("fixtures/manufactured_frictionless_p2_n08");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("solution.vtu");
+    std::fs::copy(case.join("scene.toml"), dir.path().join("scene.toml")).unwrap();
+    // The refined cell's 3 neighbours are bisected: 3 file cells of 2 triangles each.
+    refine_one(&case.join("solution.vtu"), &file, |x| {
+        x.iter()
+            .all(|p| p[0] > 0.2 && p[0] < 0.8 && p[1] > 0.2 && p[1] < 0.8)
+    });
+    let input = read_vtu(&file).unwrap();
+    let file_triangles = input.types.iter().filter(|&&t| t == 22).count();
+    let out = dir.path().join("out.vtu");
+    let (code, r, err) = estimate(&file, &["--mark", "0.5", "--output", out.to_str().unwrap()]);
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.unwrap();
+    // Counted, ranked and summed per file cell, not per triangle of the split.
+    assert_eq!(r.cells.count, file_triangles);
+    assert_eq!(r.bound.cells.len(), file_triangles);
+    let written = read_vtu(&out).unwrap();
+    let array = |name: &str| {
+        &written
+            .cell_data
+            .iter()
+            .find(|a| a.name == name)
+            .unwrap_or_else(|| panic!("{name}"))
+            .values
+    };
+    let (map, eta2, bound, marked) = (
+        array("file_cell"),
+        array("eta_squared"),
+        array("bound_squared"),
+        array("marked"),
+    );
+    let split = written.types.iter().filter(|&&t| t == 22).count();
+    assert_eq!(split, file_triangles + 3);
+    // Per file cell: the sums over its triangles of the output's per-triangle arrays, and
+    // its children's marks.
+    // (File indices count the line cells too: the sums are by VTU index, the triangles'
+    // kept in file order.)
+    let n = input.cell_count();
+    let mut e2 = vec![0.0; n];
+    let mut b2 = vec![0.0; n];
+    let mut flags: Vec<Vec<f64>> = vec![Vec::new(); n];
+    for t in 0..split {
+        let c = map[t] as usize;
+        e2[c] += eta2[t];
+        b2[c] += bound[t];
+        flags[c].push(marked[t]);
+    }
+    let triangles: Vec<usize> = (0..n).filter(|&c| !flags[c].is_empty()).collect();
+    assert_eq!(triangles.len(), file_triangles);
+    for (c, w) in r.bound.cells.iter().zip(triangles.iter().map(|&c| b2[c])) {
+        assert!((c - w).abs() <= 1e-12 * w.abs().max(1e-300), "{c} vs {w}");
+    }
+    let mut seen = std::collections::HashSet::new();
+    for w in &r.cells.worst {
+        assert!(seen.insert(w.cell), "file cell {} ranked twice", w.cell);
+        let sum = e2[w.cell];
+        assert!(
+            (w.eta_squared - sum).abs() <= 1e-12 * sum.abs(),
+            "cell {}: {} vs {sum}",
+            w.cell,
+            w.eta_squared
+        );
+    }
+    // The worst list is the largest sums, largest first.
+    let mut sorted = e2.clone();
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    assert_eq!(r.cells.worst[0].eta_squared, sorted[0]);
+    assert!(flags.iter().all(|f| f.iter().all(|&m| m == f[0])));
+    let count = triangles.iter().filter(|&&c| flags[c][0] == 1.0).count();
+    assert_eq!(r.marked.unwrap().count, count);
+    // Dörfler on the file cells: the marked ones hold at least half of Σ max(η², 0), and
+    // dropping the smallest of them falls below (the minimal set).
+    let positive: f64 = e2.iter().map(|&x| x.max(0.0)).sum();
+    let mut held: Vec<f64> = triangles
+        .iter()
+        .filter(|&&c| flags[c][0] == 1.0)
+        .map(|&c| e2[c].max(0.0))
+        .collect();
+    held.sort_by(f64::total_cmp);
+    let sum: f64 = held.iter().sum();
+    assert!(sum >= 0.5 * positive * (1.0 - 1e-12));
+    assert!(sum - held[0] < 0.5 * positive);
+}

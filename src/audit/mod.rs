@@ -950,9 +950,13 @@ pub fn run(opts: &Options, progress: &dyn Progress) -> Result<Audit, Error> {
     progress.done();
     lap("evaluate", &mut stages);
 
+    // Marked per file cell: a cell split at hanging nodes is refined as one.
     let marked = opts.mark.map(|theta| report::Marking {
         theta,
-        cells: report::mark::dorfler(&report::eta_squared(&est.cells), theta),
+        cells: report::mark::dorfler(
+            &report::eta_squared(&report::FileCells::of(&data.mesh).terms(&est.cells)),
+            theta,
+        ),
     });
     let mut notes = fields.notes.clone();
     notes.append(&mut notes_extra);
@@ -1215,8 +1219,11 @@ pub fn output_files(
         &audit.projection,
     );
     let (sigma, u) = (audit.sigma(), audit.u.as_slice());
-    let cells = run.marked.as_ref().map(|m| m.cells.as_slice());
-    let mut file = report::vtu::output_file(out, data, est, cells);
+    let cells = run
+        .marked
+        .as_ref()
+        .map(|m| report::FileCells::of(&data.mesh).expand(&m.cells));
+    let mut file = report::vtu::output_file(out, data, est, cells.as_deref());
     let displacement = match (&rebuilt, &projection) {
         (Some(r), _) => Some(("displacement_reconstructed", r.displacement.as_slice())),
         (None, Some(p)) => Some(("displacement_projected", p.displacement.as_slice())),

@@ -22,7 +22,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{BoundaryInfo, Run, Stage, WORST, cell_eta, dominant, mark, worst_cells};
+use super::{BoundaryInfo, FileCells, Run, Stage, WORST, cell_eta, dominant, mark, worst_cells};
 use crate::estimate::{Estimate, Violation};
 use crate::mesh::Mesh;
 
@@ -168,7 +168,8 @@ pub struct Bound {
     pub statement: String,
     pub terms: Option<crate::estimate::BoundTerms>,
     pub failed_hypotheses: Vec<String>,
-    /// Per cell (file order): (η_PS,T + |||z|||_T + (osc_T + as_T + tr_T)/√c_min)².
+    /// Per cell (file order): (η_PS,T + |||z|||_T + (osc_T + as_T + tr_T)/√c_min)², summed
+    /// over the triangles of a cell split at hanging nodes.
     pub cells: Vec<f64>,
 }
 
@@ -188,7 +189,7 @@ pub struct WorstCell {
 /// Cell count and ranking.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Cells {
-    /// Number of triangles.
+    /// Number of the file's cells audited (a cell split at hanging nodes counts once).
     pub count: usize,
     /// The ten largest η_T², largest first.
     pub worst: Vec<WorstCell>,
@@ -240,7 +241,8 @@ fn admissibility(a: &crate::estimate::Admissibility, mesh: &Mesh) -> Admissibili
 /// Builds the JSON document of a run.
 pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
     let a = &est.admissibility;
-    let c = &est.cells;
+    let files = FileCells::of(mesh);
+    let c = &files.terms(&est.cells);
     let f = &est.functional;
     Report {
         version: run.version.to_string(),
@@ -310,14 +312,14 @@ pub fn report(run: &Run, est: &Estimate, mesh: &Mesh) -> Report {
             statement: est.bound.statement.clone(),
             terms: est.bound.terms.clone(),
             failed_hypotheses: est.bound.failed_hypotheses.clone(),
-            cells: est.bound.cells.clone(),
+            cells: files.sums(&est.bound.cells),
         },
         cells: Cells {
-            count: mesh.cells.len(),
+            count: files.ids.len(),
             worst: worst_cells(c, WORST)
                 .into_iter()
                 .map(|t| WorstCell {
-                    cell: file_cell(mesh, t),
+                    cell: files.id(t),
                     eta: cell_eta(c, t),
                     eta_squared: c.eta_squared(t),
                     dominant: dominant(c, t).0.to_string(),

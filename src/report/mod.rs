@@ -8,7 +8,8 @@
 //!
 //! Conventions shared by all printers:
 //! - Cell indices shown to the user are indices in the VTU file (`Mesh::file_cell`),
-//!   never internal triangle numbers.
+//!   never internal triangle numbers; a cell the closure split at hanging nodes is ranked,
+//!   marked and summed as one ([`FileCells`]).
 //! - The local indicator is η_T = (max(η_T², 0))^½, where
 //!   η_T² = F_const,T + F_div,T + Σ_{E ⊂ ∂T ∩ Γ_C} (F_comp,E + F_fric,E). η_T² itself is
 //!   reported signed, because a negative value means an inadmissible pair on that cell.
@@ -26,6 +27,7 @@ use serde::{Deserialize, Serialize};
 use crate::estimate::CellTerms;
 #[cfg(doc)]
 use crate::estimate::Estimate;
+use crate::mesh::Mesh;
 
 /// How many cells the reports rank.
 pub const WORST: usize = 10;
@@ -69,7 +71,8 @@ pub struct Stage {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Marking {
     pub theta: f64,
-    /// One flag per triangle of the mesh (mesh order), from [`mark::dorfler`].
+    /// One flag per file cell ([`FileCells`] order), from [`mark::dorfler`] on the file cells'
+    /// η_T².
     pub cells: Vec<bool>,
 }
 
@@ -145,6 +148,73 @@ pub fn dominant(c: &CellTerms, t: usize) -> (&'static str, f64) {
         }
     }
     (TERMS[k], v[k])
+}
+
+/// The file's cells: the mesh's triangles grouped by [`Mesh::file_cell`], in file order
+/// (docs/design.md §4.2, "Closure"). One triangle per file cell unless the closure split cells
+/// at hanging nodes: then a file cell's η_T², bound contribution and mark are those of its
+/// children together (the terms are integrals over the cell, so they add).
+#[derive(Clone, Debug)]
+pub struct FileCells {
+    /// The file index of each group.
+    pub ids: Vec<usize>,
+    /// The group of each triangle (mesh order).
+    pub group: Vec<usize>,
+}
+
+impl FileCells {
+    pub fn of(mesh: &Mesh) -> FileCells {
+        let n = mesh.len();
+        let file = |t: usize| mesh.file_cell.get(t).map_or(t, |&c| c as usize);
+        let mut ids: Vec<usize> = (0..n).map(file).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        let group = (0..n)
+            .map(|t| ids.binary_search(&file(t)).unwrap_or(0))
+            .collect();
+        FileCells { ids, group }
+    }
+
+    /// Whether some file cell has more than one triangle.
+    pub fn split(&self) -> bool {
+        self.ids.len() < self.group.len()
+    }
+
+    /// Per-triangle values summed per file cell; values of another length (an estimate
+    /// without per-cell terms) are returned as they are.
+    pub fn sums(&self, v: &[f64]) -> Vec<f64> {
+        if !self.split() || v.len() != self.group.len() {
+            return v.to_vec();
+        }
+        let mut out = vec![0.0; self.ids.len()];
+        for (&g, &x) in self.group.iter().zip(v) {
+            out[g] += x;
+        }
+        out
+    }
+
+    /// The four terms per file cell.
+    pub fn terms(&self, c: &CellTerms) -> CellTerms {
+        CellTerms {
+            constitutive: self.sums(&c.constitutive),
+            equilibrium: self.sums(&c.equilibrium),
+            complementarity: self.sums(&c.complementarity),
+            friction: self.sums(&c.friction),
+        }
+    }
+
+    /// The file index of row `g` of [`Self::terms`].
+    pub fn id(&self, g: usize) -> usize {
+        self.ids.get(g).copied().unwrap_or(g)
+    }
+
+    /// Flags per file cell as flags per triangle (each child takes its file cell's).
+    pub fn expand(&self, flags: &[bool]) -> Vec<bool> {
+        if flags.len() != self.ids.len() {
+            return flags.to_vec();
+        }
+        self.group.iter().map(|&g| flags[g]).collect()
+    }
 }
 
 /// The up to `k` cells with the largest η_T², largest first, ties broken by the lower index.

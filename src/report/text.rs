@@ -17,7 +17,7 @@
 
 use std::fmt::Write as _;
 
-use super::{Run, WORST, cell_eta, dominant, mark, num, worst_cells};
+use super::{FileCells, Run, WORST, cell_eta, dominant, mark, num, worst_cells};
 use crate::estimate::{Estimate, Violation};
 use crate::mesh::Mesh;
 use crate::read::scene::Norm;
@@ -426,13 +426,14 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
     }
 
     // 6. Worst cells.
-    let c = &est.cells;
+    let files = FileCells::of(mesh);
+    let c = &files.terms(&est.cells);
     let worst = worst_cells(c, WORST);
     let _ = writeln!(
         o,
         "\nWorst cells ({} of {}, by η_T; cell = index in the VTU file)",
         worst.len(),
-        mesh.cells.len()
+        files.ids.len()
     );
     let mut rows = vec![vec![
         "rank".to_string(),
@@ -452,7 +453,7 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         };
         rows.push(vec![
             (r + 1).to_string(),
-            file_cell(t).to_string(),
+            files.id(t).to_string(),
             n(cell_eta(c, t)),
             n(e2),
             if f.total > 0.0 {
@@ -527,12 +528,12 @@ pub fn render(run: &Run, est: &Estimate, mesh: &Mesh) -> String {
         );
     }
     // Next step: where to refine.
-    if est.cells.constitutive.len() > 1 && run.marked.is_none() {
+    if c.constitutive.len() > 1 && run.marked.is_none() {
         let e2 = super::eta_squared(c);
         let marked = mark::dorfler(&e2, 0.5);
         let count = marked.iter().filter(|&&b| b).count();
         let (mut cx, mut cy, mut w) = (0.0, 0.0, 0.0);
-        for (t, &m) in marked.iter().enumerate() {
+        for (t, &m) in files.expand(&marked).iter().enumerate() {
             if m {
                 let v = mesh.vertices(t);
                 let k = v.len() as f64;
