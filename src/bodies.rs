@@ -373,17 +373,7 @@ pub fn restrict(data: &Dataset, bodies: &Bodies, b: usize) -> Dataset {
         file_cell: cells.iter().map(|&t| mesh.file_cell[t]).collect(),
         line_cell: lines.iter().map(|&l| mesh.line_cell[l]).collect(),
     };
-    let pick = |a: &DataArray, rows: &[usize]| DataArray {
-        values: rows
-            .iter()
-            .flat_map(|&r| {
-                a.values[r * a.components..(r + 1) * a.components]
-                    .iter()
-                    .copied()
-            })
-            .collect(),
-        ..a.clone()
-    };
+    let pick = |a: &DataArray, rows: &[usize]| a.rows(rows.iter().copied());
     let mut report = data.report.clone();
     report.curved_cells = sub
         .shape

@@ -25,18 +25,27 @@
 
 use std::collections::BTreeMap;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::{Family, MAX_NODES, Shape, triangle};
 use crate::mesh::{Closure, ClosureJump, Dataset, Mesh, NONE};
 use crate::read::decode::Scalar;
 use crate::read::vtu::DataArray;
-use crate::tolerance::HANGING_JUMP_RELATIVE;
+use crate::tolerance::{CURVED_RELATIVE, HANGING_JUMP_RELATIVE};
 use crate::topology::{self, Hanging, Topology};
 
 impl Closure {
     /// The report's note.
     pub fn note(&self) -> String {
-        let mut s = format!(
+        let mut s = String::new();
+        if self.quadrilaterals > 0 {
+            s.push_str(&format!(
+                "hanging nodes on quadrilaterals: the {} Q1 parallelograms were cut into P2 \
+                 triangle halves carrying the same field (Q1 on a parallelogram is quadratic), \
+                 so the mesh is audited as P2 triangles; ",
+                self.quadrilaterals
+            ));
+        }
+        s += &format!(
             "hanging nodes: {} cells with {} hanging vertices on their edges were split into {} \
              triangles at those vertices, carrying the same field (a conforming mesh, \
              docs/design.md §4.2); the report's cells are those of the split, each with its \
@@ -70,19 +79,25 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
     if hanging.is_empty() {
         return Ok((data, topo));
     }
+    if data.mesh.has_quads() {
+        // Q1 parallelograms are P2 triangles first; their hanging edges are then split below.
+        let triangles = quads_as_p2(&data, &hanging)?;
+        return close(triangles);
+    }
     let mesh = &data.mesh;
     let splittable = |h: &Hanging| {
         matches!(mesh.family[h.cell], Family::Tri3 | Family::Tri6)
             && mesh.shape[h.cell] == Shape::Affine
     };
-    if !hanging.iter().all(splittable) {
-        // The refusal names the first hanging vertex.
-        topology::build(&data)?;
-        return Err(Error::input(
-            &data.path,
-            "Cells",
-            "hanging nodes on quadrilaterals or curved triangles: write the solution on a \
-             conforming mesh",
+    if let Some(h) = hanging.iter().find(|h| !splittable(h)) {
+        return Err(topology::refuse_hanging(
+            &data,
+            &hanging,
+            &format!(
+                "fosls splits straight triangles at hanging nodes, and cell {} is curved (a \
+                 child of a curved cell is no isoparametric P2 cell)",
+                mesh.file_cell[h.cell]
+            ),
         ));
     }
     let mut by_cell: BTreeMap<usize, [Option<&Hanging>; 3]> = BTreeMap::new();
@@ -257,17 +272,7 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
     let cell_data = data
         .cell_data
         .iter()
-        .map(|a| DataArray {
-            values: parent
-                .iter()
-                .flat_map(|&t| {
-                    a.values[t * a.components..(t + 1) * a.components]
-                        .iter()
-                        .copied()
-                })
-                .collect(),
-            ..a.clone()
-        })
+        .map(|a| a.rows(parent.iter().copied()))
         .collect();
     // Own copies: the parents' rows carried to their children, plus the hanging nodes' own
     // values of the arrays that jump there.
@@ -324,21 +329,6 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
             values,
         });
     }
-    // Arrays with copies but no point array of that name cannot occur (copies are made from
-    // point arrays); keep any others' rows carried to the children all the same.
-    for old in &data.copies {
-        if copies.iter().any(|c| c.name == old.name) {
-            continue;
-        }
-        let row = old.components;
-        copies.push(DataArray {
-            values: parent
-                .iter()
-                .flat_map(|&t| old.values[t * row..(t + 1) * row].iter().copied())
-                .collect(),
-            ..old.clone()
-        });
-    }
 
     let closed = Mesh {
         points,
@@ -351,11 +341,20 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
         line_cell: mesh.line_cell.clone(),
     };
     let mut report = data.report.clone();
+    // A quadrilateral mesh's conversion (`quads_as_p2`) came first: its count, and the jumps it
+    // found in the arrays the split below cannot see (those without copies).
+    let earlier = report.closure.take().unwrap_or_default();
+    for j in earlier.jumps {
+        if !jumps.iter().any(|k| k.array == j.array) {
+            jumps.push(j);
+        }
+    }
     report.closure = Some(Closure {
         cells_split: by_cell.len(),
         children,
         hanging_vertices: hanging_vertices.len(),
         jumps,
+        quadrilaterals: earlier.quadrilaterals,
     });
     let closed = Dataset {
         path: data.path.clone(),
@@ -368,6 +367,239 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
     };
     let topo = topology::build(&closed)?;
     Ok((closed, topo))
+}
+
+/// A mesh of Q1 parallelograms (and P1 triangles) with hanging nodes as a mesh of straight P2
+/// triangles carrying the same field (docs/design.md §4.2): every quadrilateral is cut along its
+/// shorter diagonal, every triangle kept, and the new mid nodes take the field's values there:
+/// the mean of the edge's ends (a Q1 or P1 field is linear along an edge) or, at a
+/// quadrilateral's centre, of its four vertices. On a parallelogram the bilinear map is affine,
+/// so a Q1 field is a quadratic polynomial, and it equals its P2 interpolant on each half:
+/// the triangles carry u_h itself. A hanging vertex at the midpoint of an edge (a 2:1
+/// refinement) is that edge's mid node; where the neighbours' value there differs from the
+/// cell's own trace by more than [`HANGING_JUMP_RELATIVE`], a point array of 2 or 3 components
+/// keeps the cell's value as its own copy (`Dataset::copies`), as [`close`] does, and the others
+/// take the neighbours' (reported). Refused: quadratic cells, quadrilaterals that are no
+/// parallelogram (Q1 is rational on their halves), and a field that is already discontinuous.
+fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
+    let mesh = &data.mesh;
+    let refuse = |why: String| topology::refuse_hanging(data, hanging, &why);
+    if let Some(t) = (0..mesh.len()).find(|&t| !matches!(mesh.family[t], Family::Tri3 | Family::Quad4)) {
+        return Err(refuse(format!(
+            "fosls audits Q1 parallelograms with hanging nodes (as P2 triangles), not {} cells \
+             (cell {})",
+            mesh.family[t].name(),
+            mesh.file_cell[t]
+        )));
+    }
+    if let Some(t) = (0..mesh.len()).find(|&t| mesh.shape[t] != Shape::Affine) {
+        return Err(refuse(format!(
+            "fosls audits Q1 quadrilaterals with hanging nodes as P2 triangles, which carry a Q1 \
+             field exactly on parallelograms only, and cell {} is no parallelogram",
+            mesh.file_cell[t]
+        )));
+    }
+    if !data.copies.is_empty() {
+        return Err(refuse(
+            "fosls does not cut quadrilaterals with hanging nodes when the field is \
+             discontinuous across cells"
+                .into(),
+        ));
+    }
+    let mut inner: BTreeMap<(usize, usize), &[u32]> = BTreeMap::new();
+    for h in hanging {
+        inner.insert((h.cell, h.edge), &h.inner);
+    }
+    let arrays = &data.point_data;
+    let size: Vec<f64> = arrays
+        .iter()
+        .map(|a| a.values.iter().fold(0.0f64, |m, v| m.max(v.abs())))
+        .collect();
+    let mut points = mesh.points.clone();
+    let mut values: Vec<Vec<f64>> = arrays.iter().map(|a| a.values.clone()).collect();
+    // The mean of some points' values, appended as a new point's.
+    let add_point = |of: &[u32], points: &mut Vec<[f64; 2]>, values: &mut Vec<Vec<f64>>| {
+        let w = 1.0 / of.len() as f64;
+        let mut p = [0.0; 2];
+        for &v in of {
+            p[0] += w * points[v as usize][0];
+            p[1] += w * points[v as usize][1];
+        }
+        points.push(p);
+        for (a, vals) in arrays.iter().zip(values.iter_mut()) {
+            let c = a.components;
+            for k in 0..c {
+                let x: f64 = of.iter().map(|&v| w * vals[v as usize * c + k]).sum();
+                vals.push(x);
+            }
+        }
+        (points.len() - 1) as u32
+    };
+    let mut mids: BTreeMap<(u32, u32), u32> = BTreeMap::new();
+    // Per array: (cell, node, own minus merged) at the hanging midpoints that differ.
+    let mut own: Vec<Vec<(usize, u32, Vec<f64>)>> = vec![Vec::new(); arrays.len()];
+    let mut worst = vec![0.0f64; arrays.len()];
+    let mut cells = Vec::with_capacity(2 * mesh.len());
+    let mut parent = Vec::with_capacity(2 * mesh.len());
+    let mut quadrilaterals = 0;
+    for t in 0..mesh.len() {
+        let nv = mesh.family[t].vertices();
+        let v: Vec<u32> = mesh.nodes(t)[..nv].to_vec();
+        let mut edge_mid = [NONE; 4];
+        let mut pending: Vec<(u32, Vec<(usize, Vec<f64>)>)> = Vec::new();
+        for k in 0..nv {
+            let (a, b) = (v[k], v[(k + 1) % nv]);
+            if let Some(&m) = mids.get(&(a.min(b), a.max(b))) {
+                edge_mid[k] = m;
+                continue;
+            }
+            let (pa, pb) = (points[a as usize], points[b as usize]);
+            let half = [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])];
+            let reach = CURVED_RELATIVE * (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
+            let at_half = inner.get(&(t, k)).and_then(|vs| {
+                vs.iter().copied().find(|&h| {
+                    let q = points[h as usize];
+                    (q[0] - half[0]).hypot(q[1] - half[1]) <= reach
+                })
+            });
+            let m = match at_half {
+                Some(h) => {
+                    let mut devs = Vec::new();
+                    for (i, (a_, vals)) in arrays.iter().zip(&values).enumerate() {
+                        let c = a_.components;
+                        let dev: Vec<f64> = (0..c)
+                            .map(|j| {
+                                0.5 * (vals[a as usize * c + j] + vals[b as usize * c + j])
+                                    - vals[h as usize * c + j]
+                            })
+                            .collect();
+                        let big = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+                        if big > HANGING_JUMP_RELATIVE * size[i] {
+                            worst[i] = worst[i].max(big);
+                            devs.push((i, dev));
+                        }
+                    }
+                    if !devs.is_empty() {
+                        pending.push((h, devs));
+                    }
+                    h
+                }
+                None => add_point(&[a, b], &mut points, &mut values),
+            };
+            mids.insert((a.min(b), a.max(b)), m);
+            edge_mid[k] = m;
+        }
+        let first = cells.len();
+        let tri = |a: usize, b: usize, c: usize, m: [u32; 3]| {
+            let mut n = [NONE; MAX_NODES];
+            n[..6].copy_from_slice(&[v[a], v[b], v[c], m[0], m[1], m[2]]);
+            n
+        };
+        if nv == 3 {
+            cells.push(tri(0, 1, 2, [edge_mid[0], edge_mid[1], edge_mid[2]]));
+        } else {
+            quadrilaterals += 1;
+            let centre = add_point(&v, &mut points, &mut values);
+            let d = |i: usize, j: usize| {
+                let (p, q) = (points[v[i] as usize], points[v[j] as usize]);
+                (q[0] - p[0]).hypot(q[1] - p[1])
+            };
+            if d(0, 2) <= d(1, 3) {
+                cells.push(tri(0, 1, 2, [edge_mid[0], edge_mid[1], centre]));
+                cells.push(tri(0, 2, 3, [centre, edge_mid[2], edge_mid[3]]));
+            } else {
+                cells.push(tri(0, 1, 3, [edge_mid[0], centre, edge_mid[3]]));
+                cells.push(tri(1, 2, 3, [edge_mid[1], edge_mid[2], centre]));
+            }
+        }
+        parent.resize(cells.len(), t);
+        for (h, devs) in pending {
+            let child = (first..cells.len())
+                .find(|&c| cells[c].contains(&h))
+                .unwrap_or(first);
+            for (i, dev) in devs {
+                own[i].push((child, h, dev));
+            }
+        }
+    }
+    let mut point_data = arrays.clone();
+    for (a, vals) in point_data.iter_mut().zip(values) {
+        a.values = vals;
+    }
+    let mut jumps = Vec::new();
+    let mut copies = Vec::new();
+    for (i, a) in arrays.iter().enumerate() {
+        let c = a.components;
+        let kept = (2..=3).contains(&c) && !own[i].is_empty();
+        if worst[i] > 0.0 {
+            jumps.push(ClosureJump {
+                array: a.name.clone(),
+                max: worst[i],
+                relative: worst[i] / size[i].max(f64::MIN_POSITIVE),
+                kept_as_copies: kept,
+            });
+        }
+        if !kept {
+            continue;
+        }
+        let slot = 1 + c;
+        let row = MAX_NODES * slot;
+        let mut rows = vec![0.0; cells.len() * row];
+        for (nodes, out) in cells.iter().zip(rows.chunks_exact_mut(row)) {
+            for (s, r) in nodes.iter().zip(out.chunks_exact_mut(slot)) {
+                r[0] = f64::from(*s);
+            }
+        }
+        for (child, h, dev) in &own[i] {
+            let out = &mut rows[child * row..(child + 1) * row];
+            if let Some(r) = out.chunks_exact_mut(slot).find(|r| r[0] == f64::from(*h)) {
+                r[1..].copy_from_slice(dev);
+            }
+        }
+        copies.push(DataArray {
+            name: a.name.clone(),
+            scalar: Scalar::Float64,
+            components: row,
+            component_names: Vec::new(),
+            values: rows,
+        });
+    }
+    let lines = mesh
+        .lines
+        .iter()
+        .map(|l| {
+            let m = mids.get(&(l[0].min(l[1]), l[0].max(l[1])));
+            [l[0], l[1], m.copied().unwrap_or(NONE)]
+        })
+        .collect();
+    let mut report = data.report.clone();
+    report.closure = Some(Closure {
+        quadrilaterals,
+        jumps,
+        ..Closure::default()
+    });
+    Ok(Dataset {
+        path: data.path.clone(),
+        mesh: Mesh {
+            points,
+            degree: 2,
+            shape: vec![Shape::Affine; cells.len()],
+            family: vec![Family::Tri6; cells.len()],
+            cells,
+            lines,
+            file_cell: parent.iter().map(|&t| mesh.file_cell[t]).collect(),
+            line_cell: mesh.line_cell.clone(),
+        },
+        point_data,
+        cell_data: data
+            .cell_data
+            .iter()
+            .map(|a| a.rows(parent.iter().copied()))
+            .collect(),
+        line_data: data.line_data.clone(),
+        copies,
+        report,
+    })
 }
 
 #[cfg(test)]
@@ -660,7 +892,9 @@ mod tests {
     }
 
     #[test]
-    fn quadrilaterals_with_hanging_edges_are_refused() {
+    fn q1_parallelograms_with_hanging_edges_become_p2_triangles_carrying_the_field() {
+        // [0, 2] × [0, 1]: the left square one quadrilateral, whose edge x = 1 the right
+        // square's two meet in two pieces (MFEM's and deal.II's non-conforming refinement).
         let points = [
             [0., 0.],
             [1., 0.],
@@ -676,13 +910,78 @@ mod tests {
             (9, vec![1, 4, 7, 6]),
             (9, vec![6, 7, 5, 2]),
         ];
-        let e = close(dataset(&points, &quads, quadratic))
+        // A Q1 field on these rectangles (span{1, x, y, xy}), continuous across x = 1.
+        let bilinear = |p: [f64; 2]| {
+            let [x, y] = p;
+            [1e-3 * x - 2e-4 * y + 3e-4 * x * y, 5e-4 * y - 1e-4 * x * y + 2e-4]
+        };
+        let (d, topo) = close(dataset(&points, &quads, bilinear)).unwrap();
+        let m = &d.mesh;
+        assert_eq!(m.degree, 2);
+        assert!(m.family.iter().all(|&f| f == Family::Tri6));
+        // 3 quadrilaterals × 2 halves, the half with the hanging edge bisected: 7 triangles.
+        assert_eq!(m.len(), 7);
+        assert_eq!(m.file_cell.iter().filter(|&&c| c == 0).count(), 3);
+        let c = d.report.closure.as_ref().unwrap();
+        assert_eq!((c.quadrilaterals, c.cells_split, c.children), (3, 1, 2));
+        assert!(c.jumps.is_empty());
+        let area: f64 = (0..m.len())
+            .map(|t| {
+                let [a, b, e] = [0, 1, 2].map(|k| m.points[m.nodes(t)[k] as usize]);
+                0.5 * ((b[0] - a[0]) * (e[1] - a[1]) - (b[1] - a[1]) * (e[0] - a[0]))
+            })
+            .sum();
+        assert!((area - 2.0).abs() < 1e-15, "{area}");
+        // The bilinear field at every node of every triangle, and mid nodes at midpoints.
+        let u = &d.point_data[0];
+        for t in 0..m.len() {
+            let n = m.nodes(t);
+            for (k, &v) in n.iter().enumerate() {
+                let p = m.points[v as usize];
+                let want = bilinear(p);
+                let got = &u.values[2 * v as usize..2 * v as usize + 2];
+                assert!((got[0] - want[0]).abs() + (got[1] - want[1]).abs() < 1e-18, "{p:?}");
+                if k >= 3 {
+                    let [a, b, _] = m.edge(t, k - 3);
+                    let (pa, pb) = (m.points[a as usize], m.points[b as usize]);
+                    assert_eq!(p, [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])]);
+                }
+            }
+        }
+        assert!(topo.edges.len() > 0);
+        // The hanging vertex moved by δ (an unconstrained code): the left square keeps its own
+        // trace there as its own copy: deviation −δ from the merged value.
+        let delta = 1e-4;
+        let (d, _) = close(dataset(&points, &quads, |p| {
+            let mut u = bilinear(p);
+            if p == [1.0, 0.5] {
+                u[0] += delta;
+            }
+            u
+        }))
+        .unwrap();
+        let c = d.report.closure.as_ref().unwrap();
+        assert_eq!(c.jumps.len(), 1);
+        assert!(c.jumps[0].kept_as_copies);
+        assert!((c.jumps[0].max - delta).abs() < 1e-15);
+        let rows = crate::mesh::CopyRows::new(&d.copies[0]);
+        let left: Vec<usize> = (0..d.mesh.len())
+            .filter(|&t| d.mesh.file_cell[t] == 0 && d.mesh.nodes(t).contains(&6))
+            .collect();
+        assert_eq!(left.len(), 2);
+        for t in left {
+            assert!((rows.deviation(t, 6)[0] + delta).abs() < 1e-15);
+        }
+        // A quadrilateral that is no parallelogram: refused, naming it.
+        let mut skew = points;
+        skew[3] = [0.0, 1.3];
+        let e = close(dataset(&skew, &quads, bilinear))
             .unwrap_err()
             .to_string();
         assert!(
             e.contains("the vertex at (1, 0.5) lies inside the edge (1, 0)–(1, 1) of cell 0"),
             "{e}"
         );
-        assert!(e.contains("not quadrilaterals or curved cells"), "{e}");
+        assert!(e.contains("and cell 0 is no parallelogram"), "{e}");
     }
 }

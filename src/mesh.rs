@@ -180,7 +180,7 @@ pub struct Jump {
 }
 
 /// What the closure of hanging nodes did ([`crate::closure`]), for the report.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct Closure {
     /// Cells split (the parents).
     pub cells_split: usize,
@@ -193,6 +193,9 @@ pub struct Closure {
     /// relative to the array's largest magnitude, and whether the parents' values were kept
     /// as the children's own copies.
     pub jumps: Vec<ClosureJump>,
+    /// Q1 parallelograms first cut into P2 triangle halves (a quadrilateral mesh with hanging
+    /// nodes), 0 otherwise.
+    pub quadrilaterals: usize,
 }
 
 /// The largest difference at the hanging nodes of one point array.
@@ -481,16 +484,7 @@ pub fn build(file: VtuFile) -> Result<Dataset> {
     check_geometry(&mut mesh, &mut report).map_err(|(place, problem)| err(&place, problem))?;
 
     // Split cell data between 2D cells and lines.
-    let pick = |a: &DataArray, cells: &[u32]| DataArray {
-        values: cells
-            .iter()
-            .flat_map(|&c| {
-                let c = c as usize * a.components;
-                a.values[c..c + a.components].iter().copied()
-            })
-            .collect(),
-        ..a.clone()
-    };
+    let pick = |a: &DataArray, cells: &[u32]| a.rows(cells.iter().map(|&c| c as usize));
     let cell_data = file
         .cell_data
         .iter()

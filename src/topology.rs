@@ -141,6 +141,41 @@ pub struct Hanging {
     pub pieces: Vec<u32>,
 }
 
+/// The one-line refusal of a mesh with hanging edges `hanging` (not empty): where they are,
+/// the first hanging vertex, and `why` fosls cannot close them.
+pub fn refuse_hanging(data: &Dataset, hanging: &[Hanging], why: &str) -> Error {
+    let mesh = &data.mesh;
+    let mut cells: Vec<usize> = hanging
+        .iter()
+        .map(|h| mesh.file_cell[h.cell] as usize)
+        .collect();
+    cells.sort_unstable();
+    cells.dedup();
+    let p = |i: u32| {
+        let [x, y] = mesh.points[i as usize];
+        format!("({x}, {y})")
+    };
+    let Some(h) = hanging.first() else {
+        return Error::input(&data.path, "Cells", why.to_string());
+    };
+    let [a, b, _] = mesh.edge(h.cell, h.edge);
+    Error::input(
+        &data.path,
+        "Cells",
+        format!(
+            "hanging nodes: the mesh is not conforming (cells {} ({} in all) have an edge that \
+             their neighbours meet in pieces; the first: the vertex at {} lies inside the edge \
+             {}–{} of cell {}); {why}: write the solution on a conforming mesh",
+            list_indices(&cells),
+            cells.len(),
+            p(h.inner[0]),
+            p(a),
+            p(b),
+            mesh.file_cell[h.cell],
+        ),
+    )
+}
+
 /// The topology of a mesh that may have hanging nodes, and its hanging edges (empty when the
 /// mesh is conforming); every other defect is reported as by [`build`]. For
 /// [`crate::closure`], which splits the cells with hanging edges.
@@ -201,31 +236,13 @@ fn build_with(data: &Dataset, allow_hanging: bool) -> Result<(Topology, Vec<Hang
         )));
     }
     let hanging = hanging_nodes(mesh, &edges, &edge_cells, &cell_edges, &boundary_edges);
-    if let Some(h) = hanging.first().filter(|_| !allow_hanging) {
-        let (t, v) = (h.cell, h.inner[0]);
-        let [a, b, _] = mesh.edge(t, h.edge);
-        let mut cells: Vec<usize> = hanging
-            .iter()
-            .map(|h| mesh.file_cell[h.cell] as usize)
-            .collect();
-        cells.sort_unstable();
-        cells.dedup();
-        let p = |i: u32| {
-            let [x, y] = mesh.points[i as usize];
-            format!("({x}, {y})")
-        };
-        return Err(err(format!(
-            "hanging nodes: the mesh is not conforming (cells {} ({} in all) have an edge that \
-             their neighbours meet in pieces; the first: the vertex at {} lies inside the edge \
-             {}–{} of cell {}); fosls splits straight triangles at hanging nodes, not \
-             quadrilaterals or curved cells: write the solution on a conforming mesh",
-            list_indices(&cells),
-            cells.len(),
-            p(v),
-            p(a),
-            p(b),
-            mesh.file_cell[t],
-        )));
+    if !allow_hanging && !hanging.is_empty() {
+        return Err(refuse_hanging(
+            data,
+            &hanging,
+            "fosls splits straight triangles and Q1 parallelograms at hanging nodes, not curved \
+             triangles or quadratic quadrilaterals",
+        ));
     }
     // Line cells: each must be an edge of the mesh.
     let mut line_edge = Vec::with_capacity(mesh.lines.len());
@@ -560,9 +577,9 @@ mod tests {
             e,
             "m.vtu: Cells: hanging nodes: the mesh is not conforming (cells 0 (1 in all) have \
              an edge that their neighbours meet in pieces; the first: the vertex at (1, 0.5) \
-             lies inside the edge (1, 0)–(1, 1) of cell 0); fosls splits straight triangles at \
-             hanging nodes, not quadrilaterals or curved cells: write the solution on a \
-             conforming mesh"
+             lies inside the edge (1, 0)–(1, 1) of cell 0); fosls splits straight triangles and \
+             Q1 parallelograms at hanging nodes, not curved triangles or quadratic \
+             quadrilaterals: write the solution on a conforming mesh"
         );
         // Split at the hanging vertex, the same mesh is conforming.
         let mut split = cells.clone();

@@ -155,18 +155,19 @@ fn inverted_and_degenerate_cells() {
 }
 
 #[test]
-fn hanging_nodes_of_quadrilaterals() {
-    // [0, 2] × [0, 1]: the left square is one quadrilateral, whose edge x = 1 the right
-    // square's two quadrilaterals meet in two pieces (the vertex (1, 0.5) hangs on it), as
-    // MFEM's and deal.II's non-conforming refinement writes it. Triangles are split at such
-    // vertices (closure.rs, tests/hanging.rs); a quadrilateral cannot be.
+fn hanging_nodes_of_quadrilaterals_that_are_no_parallelograms() {
+    // [0, 2] × [0, 1] with the left cell's corner (0, 1) moved to (0, 1.3): its edge x = 1 the
+    // right square's two quadrilaterals meet in two pieces (the vertex (1, 0.5) hangs on it), as
+    // MFEM's and deal.II's non-conforming refinement writes it. Q1 parallelograms are cut into
+    // P2 triangles carrying the same field and then split at such vertices (closure.rs,
+    // tests/hanging.rs); on this cell Q1 is no polynomial, so the mesh is refused.
     let f = VtuFile::from_cells(
         Path::new("x.vtu"),
         vec![
             [0., 0., 0.],
             [1., 0., 0.],
             [1., 1., 0.],
-            [0., 1., 0.],
+            [0., 1.3, 0.],
             [2., 0., 0.],
             [2., 1., 0.],
             [1., 0.5, 0.],
@@ -182,8 +183,9 @@ fn hanging_nodes_of_quadrilaterals() {
         refused("hanging.vtu", &to_bytes(&f, Placement::AppendedRaw)),
         "Cells: hanging nodes: the mesh is not conforming (cells 0 (1 in all) have an edge that \
          their neighbours meet in pieces; the first: the vertex at (1, 0.5) lies inside the edge \
-         (1, 0)–(1, 1) of cell 0); fosls splits straight triangles at hanging nodes, not \
-         quadrilaterals or curved cells: write the solution on a conforming mesh"
+         (1, 0)–(1, 1) of cell 0); fosls audits Q1 quadrilaterals with hanging nodes as P2 \
+         triangles, which carry a Q1 field exactly on parallelograms only, and cell 0 is no \
+         parallelogram: write the solution on a conforming mesh"
     );
 }
 

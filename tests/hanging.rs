@@ -1,9 +1,10 @@
 //! Meshes with hanging nodes (non-conforming adaptive refinement): the straight triangles with
-//! a hanging edge are split about their centroids (src/closure.rs, docs/design.md §4.2), and
+//! a hanging edge are split at their hanging vertices (src/closure.rs, docs/design.md §4.2), and
 //! the audit runs on the closed mesh.
 //!
-//! * MFEM's output of a non-conforming triangle mesh (`fixtures/mfem_nonconforming/`, all four
-//!   triangle forms: P1/P2, Lagrange cells or refined linear cells) carrying the linear field
+//! * MFEM's output of a non-conforming mesh (`fixtures/mfem_nonconforming/`: the four triangle
+//!   forms, P1/P2 as Lagrange cells or refined linear cells, and the three quadrilateral forms of
+//!   Q1 cells, which are first cut into P2 triangle halves) carrying the linear field
 //!   u = (1e-3 x + 2e-4 y, 1e-4 x − 3e-4 y): with Dirichlet data u on x = 0 and the tractions
 //!   σn of u on the other sides (by hand), u_h is the exact solution, so the bound is round-off
 //!   and the energy is the hand value ½ ∫ σ:ε.
@@ -54,7 +55,17 @@ fn mfem_triangles_with_hanging_nodes_are_audited_exactly() {
     // ½ ∫ σ:ε over the area 2.
     let energy = sxx * 1e-3 + syy * -3e-4 + 2.0 * sxy * 1.5e-4;
     let fixtures = root().join("fixtures/mfem_nonconforming");
-    for case in ["p1_high_tri", "p2_high_tri", "p1_low_tri", "p2_low_tri"] {
+    // The triangle forms, and the quadrilateral forms of Q1 cells (MFEM's P2 field written as
+    // refined linear cells is one), which are cut into P2 triangle halves first.
+    for case in [
+        "p1_high_tri",
+        "p2_high_tri",
+        "p1_low_tri",
+        "p2_low_tri",
+        "p1_high_quad",
+        "p1_low_quad",
+        "p2_low_quad",
+    ] {
         let file = fixtures.join(case).join(format!("{case}.pvd"));
         let (code, r, err) = estimate(&file, &["--scene", scene_path.to_str().unwrap()]);
         assert_eq!(code, 0, "{case}: {err}");
@@ -74,9 +85,14 @@ fn mfem_triangles_with_hanging_nodes_are_audited_exactly() {
         let note = r
             .notes
             .iter()
-            .find(|n| n.starts_with("hanging nodes: "))
+            .find(|n| n.starts_with("hanging nodes"))
             .unwrap();
         assert!(note.contains("split into"), "{case}: {note}");
+        assert_eq!(
+            note.starts_with("hanging nodes on quadrilaterals: "),
+            case.ends_with("_quad"),
+            "{case}: {note}"
+        );
         assert!(!note.contains("differs"), "{case}: {note}");
     }
     // The VTU output of the split mesh maps each cell to its file cell: MFEM's 7 Lagrange

@@ -399,17 +399,18 @@ fn point(s: &str) -> [f64; 2] {
 }
 
 #[test]
-fn mfem_non_conforming_quadrilaterals_are_refused_naming_a_hanging_vertex() {
-    // MFEM's ParaViewDataCollection of a non-conformingly refined quadrilateral mesh, in every
-    // form MFEM writes (reference/nonconforming/). Independent source: the hanging vertices
-    // VTK's reader finds in each file (expected.json). The triangle forms are split at their
-    // hanging vertices and audited (tests/hanging.rs).
+fn mfem_non_conforming_q2_quadrilaterals_are_refused_naming_a_hanging_vertex() {
+    // MFEM's ParaViewDataCollection of a non-conformingly refined quadrilateral mesh with a P2
+    // field as Lagrange cells (Q2: not a P2 polynomial on triangle halves; reference/
+    // nonconforming/). Independent source: the hanging vertices VTK's reader finds in the file
+    // (expected.json). The triangle forms are split at their hanging vertices, and the Q1
+    // quadrilateral forms cut into P2 triangles first, and audited (tests/hanging.rs).
     let dir = root().join("fixtures").join("mfem_nonconforming");
     let exp: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
     let cases = exp["cases"].as_object().unwrap();
     assert_eq!(cases.len(), 8);
-    for (case, c) in cases.iter().filter(|(case, _)| case.ends_with("_quad")) {
+    for (case, c) in cases.iter().filter(|(case, _)| *case == "p2_high_quad") {
         let file = dir.join(c["entry"].as_str().unwrap());
         let out = Command::new(env!("CARGO_BIN_EXE_fosls"))
             .arg("inspect")
@@ -422,6 +423,10 @@ fn mfem_non_conforming_quadrilaterals_are_refused_naming_a_hanging_vertex() {
         assert_eq!(stderr.lines().count(), 1, "{case}: {stderr}");
         assert!(
             stderr.contains("Cells: hanging nodes: the mesh is not conforming"),
+            "{case}: {stderr}"
+        );
+        assert!(
+            stderr.contains("not Q2 quadrilateral cells (cell 0)"),
             "{case}: {stderr}"
         );
         // "the vertex at (x, y) lies inside the edge (a)–(b) of cell …"

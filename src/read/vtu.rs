@@ -43,6 +43,22 @@ impl DataArray {
     pub fn tuples(&self) -> usize {
         self.values.len() / self.components.max(1)
     }
+
+    /// The array of the tuples `rows` (in that order, repeats allowed): a cell array carried
+    /// to a subset of the cells, or to the pieces of split cells.
+    pub fn rows(&self, rows: impl IntoIterator<Item = usize>) -> DataArray {
+        let c = self.components;
+        DataArray {
+            name: self.name.clone(),
+            scalar: self.scalar,
+            components: c,
+            component_names: self.component_names.clone(),
+            values: rows
+                .into_iter()
+                .flat_map(|r| self.values[r * c..(r + 1) * c].iter().copied())
+                .collect(),
+        }
+    }
 }
 
 /// How the file was written, for `inspect`.
