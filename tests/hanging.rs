@@ -381,3 +381,111 @@ fn a_split_file_cell_is_ranked_marked_and_summed_as_one() {
     assert!(sum >= 0.5 * positive * (1.0 - 1e-12));
     assert!(sum - held[0] < 0.5 * positive);
 }
+
+/// `src` with its quadrilateral cell picked by `pick` refined into four quadrilaterals that
+/// carry the parent's Q1 field: the new points (edge midpoints and centre) take the means of
+/// the parent's corner values along the edge or over the cell, which is the bilinear field
+/// there; cell arrays copied.
+fn refine_one_quad(src: &Path, out: &Path, pick: impl Fn(&[[f64; 3]]) -> bool) {
+    let mut f = read_vtu(src).unwrap();
+    let t = (0..f.cell_count())
+        .find(|&c| {
+            f.types[c] == 9
+                && pick(
+                    &f.cell(c)
+                        .iter()
+                        .map(|&n| f.points[n as usize])
+                        .collect::<Vec<_>>(),
+                )
+        })
+        .expect("a cell to refine");
+    let v: Vec<u32> = f.cell(t).to_vec();
+    let mut mean = |of: &[u32]| -> u32 {
+        let w = 1.0 / of.len() as f64;
+        let x: [f64; 3] =
+            std::array::from_fn(|c| of.iter().map(|&n| w * f.points[n as usize][c]).sum());
+        f.points.push(x);
+        for a in &mut f.point_data {
+            let nc = a.components;
+            let vals: Vec<f64> = (0..nc)
+                .map(|c| of.iter().map(|&n| w * a.values[n as usize * nc + c]).sum())
+                .collect();
+            a.values.extend(vals);
+        }
+        (f.points.len() - 1) as u32
+    };
+    let m: Vec<u32> = (0..4).map(|k| mean(&[v[k], v[(k + 1) % 4]])).collect();
+    let c = mean(&v);
+    let children = [
+        [v[0], m[0], c, m[3]],
+        [m[0], v[1], m[1], c],
+        [c, m[1], v[2], m[2]],
+        [m[3], c, m[2], v[3]],
+    ];
+    let mut connectivity = Vec::new();
+    let mut offsets = vec![0];
+    for cell in 0..f.cell_count() {
+        let nodes = if cell == t {
+            children[0].to_vec()
+        } else {
+            f.cell(cell).to_vec()
+        };
+        connectivity.extend(nodes);
+        offsets.push(connectivity.len());
+    }
+    for nodes in &children[1..] {
+        connectivity.extend(nodes);
+        offsets.push(connectivity.len());
+        f.types.push(9);
+    }
+    f.connectivity = connectivity;
+    f.offsets = offsets;
+    for a in &mut f.cell_data {
+        let nc = a.components;
+        let row = a.values[t * nc..(t + 1) * nc].to_vec();
+        for _ in 0..3 {
+            a.values.extend_from_slice(&row);
+        }
+    }
+    write_vtu(out, &f, Placement::AppendedRaw).unwrap();
+}
+
+#[test]
+fn one_refined_cell_of_the_manufactured_q1_mesh_keeps_the_bound_above_the_true_error() {
+    // The manufactured Q1 n08 fixture (unit-square cells) with one interior cell refined into
+    // four: the same u_h on a non-conforming mesh, cut into P2 triangle halves (exact on these
+    // parallelograms) and closed, so the fixture's true error (expected.json, from the exact
+    // solution) is the true error here too.
+    let case = root().join("fixtures/quad_manufactured_q1_n08");
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(case.join("expected.json")).unwrap())
+            .unwrap();
+    let truth = expected["errors"]["fe"]["energy"].as_f64().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("solution.vtu");
+    std::fs::copy(case.join("scene.toml"), dir.path().join("scene.toml")).unwrap();
+    refine_one_quad(&case.join("solution.vtu"), &file, |x| {
+        x.iter()
+            .all(|p| p[0] > 0.2 && p[0] < 0.8 && p[1] > 0.2 && p[1] < 0.8)
+    });
+    let (code, r, err) = estimate(&file, &[]);
+    assert!(code == 0 || code == 1, "{err}");
+    let r = r.unwrap();
+    let note = r
+        .notes
+        .iter()
+        .find(|n| n.starts_with("hanging nodes on quadrilaterals: "))
+        .expect("a closure note");
+    // 64 + 3 quadrilaterals; the refined cell's 4 neighbours get one hanging vertex each.
+    assert!(note.contains("the 67 Q1 parallelograms"), "{note}");
+    assert!(
+        note.contains("hanging nodes: 4 cells with 4 hanging vertices"),
+        "{note}"
+    );
+    assert!(!note.contains("differs"), "{note}");
+    assert_eq!(r.cells.count, 67);
+    let b = r.bound.energy_error.unwrap();
+    assert!(b >= truth, "bound {b} below the true error {truth}");
+    assert!(b <= 2.0 * truth, "bound {b}, true {truth}: index above 2");
+    eprintln!("bound {b:.6e}, true {truth:.6e}: index {:.3}", b / truth);
+}

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Fixture family `mfem_nonconforming`: MFEM's own output of a non-conformingly refined mesh
-(hanging vertices): fosls splits the triangle forms at them and refuses the quadrilateral forms
-(docs/design.md §4.2, "Hanging nodes" and "Closure").
+(hanging vertices): fosls splits the triangle forms at them, cuts the Q1 quadrilateral forms
+into P2 triangles first, and refuses the Q2 form (docs/design.md §4.2, "Hanging nodes" and
+"Closure").
 
     reference/.venv/bin/python reference/nonconforming/make.py           # (re)write the fixtures
     reference/.venv/bin/python reference/nonconforming/make.py --check   # compare with the committed files
@@ -13,7 +14,7 @@ deterministic); without it, it checks the committed files against the SHA-256 su
 fixtures/mfem_nonconforming/expected.json, and in both cases that every case's mesh has the
 hanging vertices its construction gives (read with VTK: a vertex of one cell inside an edge of
 another), which is what the test (`tests/othercodes.rs`) expects fosls to name for the
-quadrilateral forms.
+Q2 quadrilateral form.
 """
 
 from __future__ import annotations
@@ -115,9 +116,9 @@ MFEM's `ParaViewDataCollection` with high-order output on (Lagrange cells, each 
 own points) and off (each element refined into linear cells). Eight cases, `p{order}_{high|low}_{quad|tri}/`.
 
 The refined element's edge midpoints lie inside the edges of its unrefined neighbours: the mesh
-is not conforming. fosls splits the triangles at their hanging vertices (docs/design.md §4.2,
-"Closure"; tests/hanging.rs) and refuses the quadrilateral forms (exit status 2, the first
-hanging vertex named; §4.2, "Hanging nodes"). `expected.json` lists each case's hanging vertices (found
+is not conforming. fosls splits the triangles at their hanging vertices, cuts the Q1
+quadrilateral forms into P2 triangles first (docs/design.md §4.2, "Closure"; tests/hanging.rs)
+and refuses the Q2 Lagrange form (exit status 2, the first hanging vertex named; §4.2). `expected.json` lists each case's hanging vertices (found
 with VTK's reader: a cell corner inside another cell's edge) and the files' SHA-256 sums.
 """
 
