@@ -50,8 +50,9 @@ impl Closure {
         s += &format!(
             "hanging nodes: {} cells with {} hanging vertices on their edges were split into {} \
              triangles at those vertices, carrying the same field (a conforming mesh, \
-             docs/design.md §4.2); the report's cells are those of the split, each with its \
-             file cell's index",
+             docs/design.md §4.2); the report counts, ranks and marks the file's cells (a \
+             split cell as one), and --output writes the split mesh with the cell array \
+             file_cell",
             self.cells_split, self.hanging_vertices, self.children
         );
         for j in &self.jumps {
