@@ -382,8 +382,10 @@ pub fn close(data: Dataset) -> Result<(Dataset, Topology)> {
 /// refinement) is that edge's mid node; where the neighbours' value there differs from the
 /// cell's own trace by more than [`HANGING_JUMP_RELATIVE`], a point array of 2 or 3 components
 /// keeps the cell's value as its own copy (`Dataset::copies`), as [`close`] does, and the others
-/// take the neighbours' (reported). Refused: quadratic cells, quadrilaterals that are no
-/// parallelogram (Q1 is rational on their halves), and a field that is already discontinuous.
+/// take the neighbours' (reported). A field the file holds discontinuous across cells (its
+/// copies) keeps each cell's own values through the cut: a triangle's deviation at a new node
+/// is the mean of its parent's at the corners the node's value comes from. Refused: quadratic
+/// cells and quadrilaterals that are no parallelogram (Q1 is rational on their halves).
 fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
     let mesh = &data.mesh;
     let refuse = |why: String| topology::refuse_hanging(data, hanging, &why);
@@ -403,13 +405,6 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
              field exactly on parallelograms only, and cell {} is no parallelogram",
             mesh.file_cell[t]
         )));
-    }
-    if !data.copies.is_empty() {
-        return Err(refuse(
-            "fosls does not cut quadrilaterals with hanging nodes when the field is \
-             discontinuous across cells"
-                .into(),
-        ));
     }
     let mut inner: BTreeMap<(usize, usize), &[u32]> = BTreeMap::new();
     for h in hanging {
@@ -441,18 +436,15 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
         (points.len() - 1) as u32
     };
     let mut mids: BTreeMap<(u32, u32), u32> = BTreeMap::new();
-    // Per array: (cell, node, own minus merged) at the hanging midpoints that differ.
-    let mut own: Vec<Vec<(usize, u32, Vec<f64>)>> = vec![Vec::new(); arrays.len()];
-    let mut worst = vec![0.0f64; arrays.len()];
     let mut cells = Vec::with_capacity(2 * mesh.len());
     let mut parent = Vec::with_capacity(2 * mesh.len());
+    // Per triangle, the parent's points whose mean each of its nodes takes (a corner itself).
+    let mut sources: Vec<[Vec<u32>; 6]> = Vec::with_capacity(2 * mesh.len());
     let mut quadrilaterals = 0;
     for t in 0..mesh.len() {
         let nv = mesh.family[t].vertices();
         let v: Vec<u32> = mesh.nodes(t)[..nv].to_vec();
         let mut edge_mid = [NONE; 4];
-        // (hanging vertex, array, own minus merged) of this cell's midpoints that differ.
-        let mut pending: Vec<(u32, usize, Vec<f64>)> = Vec::new();
         for k in 0..nv {
             let (a, b) = (v[k], v[(k + 1) % nv]);
             if let Some(&m) = mids.get(&(a.min(b), a.max(b))) {
@@ -468,37 +460,28 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
                     (q[0] - half[0]).hypot(q[1] - half[1]) <= reach
                 })
             });
-            let m = match at_half {
-                Some(h) => {
-                    for (i, (a_, vals)) in arrays.iter().zip(&values).enumerate() {
-                        let c = a_.components;
-                        let dev: Vec<f64> = (0..c)
-                            .map(|j| {
-                                0.5 * (vals[a as usize * c + j] + vals[b as usize * c + j])
-                                    - vals[h as usize * c + j]
-                            })
-                            .collect();
-                        let big = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
-                        if big > HANGING_JUMP_RELATIVE * size[i] {
-                            worst[i] = worst[i].max(big);
-                            pending.push((h, i, dev));
-                        }
-                    }
-                    h
-                }
-                None => add_point(&[a, b], &mut points, &mut values),
-            };
+            let m = at_half.unwrap_or_else(|| add_point(&[a, b], &mut points, &mut values));
             mids.insert((a.min(b), a.max(b)), m);
             edge_mid[k] = m;
         }
-        let first = cells.len();
-        let tri = |a: usize, b: usize, c: usize, m: [u32; 3]| {
-            let mut n = [NONE; MAX_NODES];
-            n[..6].copy_from_slice(&[v[a], v[b], v[c], m[0], m[1], m[2]]);
-            n
+        let source = |n: u32| -> Vec<u32> {
+            if let Some(k) = edge_mid.iter().position(|&m| m == n) {
+                vec![v[k], v[(k + 1) % nv]]
+            } else if v.contains(&n) {
+                vec![n]
+            } else {
+                v.clone()
+            }
+        };
+        let mut push = |n: [u32; 6]| {
+            let mut nodes = [NONE; MAX_NODES];
+            nodes[..6].copy_from_slice(&n);
+            cells.push(nodes);
+            parent.push(t);
+            sources.push(n.map(source));
         };
         if nv == 3 {
-            cells.push(tri(0, 1, 2, [edge_mid[0], edge_mid[1], edge_mid[2]]));
+            push([v[0], v[1], v[2], edge_mid[0], edge_mid[1], edge_mid[2]]);
         } else {
             quadrilaterals += 1;
             let centre = add_point(&v, &mut points, &mut values);
@@ -507,62 +490,89 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
                 (q[0] - p[0]).hypot(q[1] - p[1])
             };
             if d(0, 2) <= d(1, 3) {
-                cells.push(tri(0, 1, 2, [edge_mid[0], edge_mid[1], centre]));
-                cells.push(tri(0, 2, 3, [centre, edge_mid[2], edge_mid[3]]));
+                push([v[0], v[1], v[2], edge_mid[0], edge_mid[1], centre]);
+                push([v[0], v[2], v[3], centre, edge_mid[2], edge_mid[3]]);
             } else {
-                cells.push(tri(0, 1, 3, [edge_mid[0], centre, edge_mid[3]]));
-                cells.push(tri(1, 2, 3, [edge_mid[1], edge_mid[2], centre]));
+                push([v[0], v[1], v[3], edge_mid[0], centre, edge_mid[3]]);
+                push([v[1], v[2], v[3], edge_mid[1], edge_mid[2], centre]);
             }
         }
-        parent.resize(cells.len(), t);
-        for (h, i, dev) in pending {
-            let child = (first..cells.len())
-                .find(|&c| cells[c].contains(&h))
-                .unwrap_or(first);
-            own[i].push((child, h, dev));
+    }
+    // Each triangle's own value at each node: the mean of its parent's own values (merged plus
+    // the file's copies) at the sources. Its deviation from the merged value there is the
+    // parent's copy at a corner, the mean of the corners' at a new point, and at a hanging
+    // midpoint also the difference between the parent's trace and the neighbours' value.
+    let mut jumps = Vec::new();
+    let mut copies = Vec::new();
+    for (i, a) in arrays.iter().enumerate() {
+        let c = a.components;
+        let file = data.copies.iter().find(|k| k.name == a.name);
+        let own = |t: usize, n: u32| -> Vec<f64> {
+            let mut x = values[i][n as usize * c..(n as usize + 1) * c].to_vec();
+            if let Some(k) = file {
+                let row = &k.values[t * k.components..(t + 1) * k.components];
+                if let Some(r) = row.chunks_exact(1 + c).find(|r| r[0] == f64::from(n)) {
+                    for (xj, d) in x.iter_mut().zip(&r[1..]) {
+                        *xj += d;
+                    }
+                }
+            }
+            x
+        };
+        let slot = 1 + c;
+        let row = MAX_NODES * slot;
+        let mut rows = vec![0.0; cells.len() * row];
+        let (mut worst, mut any) = (0.0f64, false);
+        for (child, nodes) in cells.iter().enumerate() {
+            let out = &mut rows[child * row..(child + 1) * row];
+            for (k, (&n, r)) in nodes.iter().zip(out.chunks_exact_mut(slot)).enumerate() {
+                r[0] = f64::from(n);
+                let Some(from) = sources[child].get(k) else {
+                    continue;
+                };
+                let w = 1.0 / from.len() as f64;
+                let mut mine = vec![0.0; c];
+                for &s in from {
+                    for (m, x) in mine.iter_mut().zip(own(parent[child], s)) {
+                        *m += w * x;
+                    }
+                }
+                let merged = &values[i][n as usize * c..(n as usize + 1) * c];
+                for (j, (m, x)) in mine.iter().zip(merged).enumerate() {
+                    r[1 + j] = m - x;
+                }
+                let big = r[1..].iter().fold(0.0f64, |m, d| m.max(d.abs()));
+                // At a hanging midpoint the merged value is the neighbours': the deviation is
+                // the jump of the field there (elsewhere it is the file's copies).
+                let hanging_mid = (n as usize) < mesh.points.len() && from.len() == 2;
+                if hanging_mid && big > HANGING_JUMP_RELATIVE * size[i] {
+                    worst = worst.max(big);
+                }
+                any |= big > 0.0;
+            }
+        }
+        let kept = (2..=3).contains(&c) && (file.is_some() || worst > 0.0) && any;
+        if worst > 0.0 {
+            jumps.push(ClosureJump {
+                array: a.name.clone(),
+                max: worst,
+                relative: worst / size[i].max(f64::MIN_POSITIVE),
+                kept_as_copies: kept,
+            });
+        }
+        if kept {
+            copies.push(DataArray {
+                name: a.name.clone(),
+                scalar: Scalar::Float64,
+                components: row,
+                component_names: Vec::new(),
+                values: rows,
+            });
         }
     }
     let mut point_data = arrays.clone();
     for (a, vals) in point_data.iter_mut().zip(values) {
         a.values = vals;
-    }
-    let mut jumps = Vec::new();
-    let mut copies = Vec::new();
-    for (i, a) in arrays.iter().enumerate() {
-        let c = a.components;
-        let kept = (2..=3).contains(&c) && !own[i].is_empty();
-        if worst[i] > 0.0 {
-            jumps.push(ClosureJump {
-                array: a.name.clone(),
-                max: worst[i],
-                relative: worst[i] / size[i].max(f64::MIN_POSITIVE),
-                kept_as_copies: kept,
-            });
-        }
-        if !kept {
-            continue;
-        }
-        let slot = 1 + c;
-        let row = MAX_NODES * slot;
-        let mut rows = vec![0.0; cells.len() * row];
-        for (nodes, out) in cells.iter().zip(rows.chunks_exact_mut(row)) {
-            for (s, r) in nodes.iter().zip(out.chunks_exact_mut(slot)) {
-                r[0] = f64::from(*s);
-            }
-        }
-        for (child, h, dev) in &own[i] {
-            let out = &mut rows[child * row..(child + 1) * row];
-            if let Some(r) = out.chunks_exact_mut(slot).find(|r| r[0] == f64::from(*h)) {
-                r[1..].copy_from_slice(dev);
-            }
-        }
-        copies.push(DataArray {
-            name: a.name.clone(),
-            scalar: Scalar::Float64,
-            components: row,
-            component_names: Vec::new(),
-            values: rows,
-        });
     }
     let lines = mesh
         .lines
@@ -887,6 +897,68 @@ mod tests {
                     refined == 0 || refined == 2 * n * n,
                     "round {round}: nothing split"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn a_discontinuous_q1_field_keeps_each_cells_own_values_through_the_cut_and_the_split() {
+        // The mesh of the test below written exploded (each quadrilateral with its own points),
+        // the left one's field shifted by s: the merge keeps the shift as that cell's copies,
+        // and every triangle cut from it must carry bilinear + s at every node, the others
+        // bilinear, new nodes included.
+        let corners = [
+            [[0., 0.], [1., 0.], [1., 1.], [0., 1.]],
+            [[1., 0.], [2., 0.], [2., 0.5], [1., 0.5]],
+            [[1., 0.5], [2., 0.5], [2., 1.], [1., 1.]],
+        ];
+        let bilinear = |p: [f64; 2]| {
+            let [x, y] = p;
+            [
+                1e-3 * x - 2e-4 * y + 3e-4 * x * y,
+                5e-4 * y - 1e-4 * x * y + 2e-4,
+            ]
+        };
+        let shift = [2e-4, -1e-4];
+        let points: Vec<[f64; 2]> = corners.iter().flatten().copied().collect();
+        let quads: Cells = (0..3u32)
+            .map(|q| (9u8, (4 * q..4 * q + 4).collect()))
+            .collect();
+        let mut f = VtuFile::from_cells(
+            Path::new("m.vtu"),
+            points.iter().map(|p| [p[0], p[1], 0.0]).collect(),
+            &quads,
+        );
+        f.point_data.push(DataArray {
+            name: "u".into(),
+            scalar: Scalar::Float64,
+            components: 2,
+            component_names: Vec::new(),
+            values: points
+                .iter()
+                .enumerate()
+                .flat_map(|(i, &p)| {
+                    let u = bilinear(p);
+                    let s = if i < 4 { shift } else { [0.0; 2] };
+                    [u[0] + s[0], u[1] + s[1]]
+                })
+                .collect(),
+        });
+        let (d, _) = close(mesh::build(f).unwrap()).unwrap();
+        let m = &d.mesh;
+        assert_eq!(m.len(), 7);
+        let u = &d.point_data[0];
+        let rows = crate::mesh::CopyRows::new(&d.copies[0]);
+        for t in 0..m.len() {
+            let s = if m.file_cell[t] == 0 { shift } else { [0.0; 2] };
+            for &v in m.nodes(t) {
+                let p = m.points[v as usize];
+                let want = bilinear(p);
+                let dev = rows.deviation(t, v);
+                for j in 0..2 {
+                    let got = u.values[2 * v as usize + j] + dev[j];
+                    assert!((got - want[j] - s[j]).abs() < 1e-17, "cell {t} at {p:?}");
+                }
             }
         }
     }
