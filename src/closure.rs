@@ -20,7 +20,7 @@
 //! copy ([`Dataset::copies`]), as an exploded file of a discontinuous field does, so the bound
 //! takes the broken norm; other arrays take the neighbours' value there, and the report says
 //! by how much it differs. A mesh of Q1 parallelograms is first cut into P2 triangles that
-//! carry the same field ([`quads_as_p2`]): a quadrilateral cannot be split into
+//! carry the same field (`quads_as_p2`): a quadrilateral cannot be split into
 //! quadrilaterals at an odd number of boundary points. Curved triangles with hanging edges are
 //! refused (a child of a curved cell is no isoparametric P2 cell), as are quadratic
 //! quadrilaterals and bilinear ones ([`topology::refuse_hanging`]).
