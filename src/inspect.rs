@@ -289,6 +289,14 @@ pub fn render(s: &Summary) -> String {
         let _ = writeln!(o, "  components  {j}");
     }
     if let Some(c) = &s.closure {
+        if c.quadrilaterals > 0 {
+            let _ = writeln!(
+                o,
+                "  hanging     {} Q1 parallelograms cut into P2 triangle halves carrying the same \
+                 field (docs/design.md §4.2)",
+                c.quadrilaterals
+            );
+        }
         let _ = writeln!(
             o,
             "  hanging     {} hanging vertices: {} triangles split into {} (the mesh line counts \
