@@ -438,8 +438,8 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
     let mut mids: BTreeMap<(u32, u32), u32> = BTreeMap::new();
     let mut cells = Vec::with_capacity(2 * mesh.len());
     let mut parent = Vec::with_capacity(2 * mesh.len());
-    // Per triangle, the parent's points whose mean each of its nodes takes (a corner itself).
-    let mut sources: Vec<[Vec<u32>; 6]> = Vec::with_capacity(2 * mesh.len());
+    // Per parent cell, its edges' mid nodes (each takes the mean of the edge's ends).
+    let mut cell_mids: Vec<[u32; 4]> = Vec::with_capacity(mesh.len());
     let mut quadrilaterals = 0;
     for t in 0..mesh.len() {
         let nv = mesh.family[t].vertices();
@@ -464,21 +464,12 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
             mids.insert((a.min(b), a.max(b)), m);
             edge_mid[k] = m;
         }
-        let source = |n: u32| -> Vec<u32> {
-            if let Some(k) = edge_mid.iter().position(|&m| m == n) {
-                vec![v[k], v[(k + 1) % nv]]
-            } else if v.contains(&n) {
-                vec![n]
-            } else {
-                v.clone()
-            }
-        };
+        cell_mids.push(edge_mid);
         let mut push = |n: [u32; 6]| {
             let mut nodes = [NONE; MAX_NODES];
             nodes[..6].copy_from_slice(&n);
             cells.push(nodes);
             parent.push(t);
-            sources.push(n.map(source));
         };
         if nv == 3 {
             push([v[0], v[1], v[2], edge_mid[0], edge_mid[1], edge_mid[2]]);
@@ -498,6 +489,23 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
             }
         }
     }
+    // The parent's corners whose mean node `n` of a triangle cut from parent `t` takes: the
+    // corner itself, an edge's ends, or all corners (the centre); and how many.
+    let sources = |t: usize, n: u32| -> ([u32; 4], usize) {
+        let nv = mesh.family[t].vertices();
+        let v = &mesh.nodes(t)[..nv];
+        let mut out = [NONE; 4];
+        if v.contains(&n) {
+            out[0] = n;
+            (out, 1)
+        } else if let Some(k) = cell_mids[t][..nv].iter().position(|&m| m == n) {
+            out[..2].copy_from_slice(&[v[k], v[(k + 1) % nv]]);
+            (out, 2)
+        } else {
+            out[..nv].copy_from_slice(v);
+            (out, nv)
+        }
+    };
     // Each triangle's own value at each node: the mean of its parent's own values (merged plus
     // the file's copies) at the sources. Its deviation from the merged value there is the
     // parent's copy at a corner, the mean of the corners' at a new point, and at a hanging
@@ -506,45 +514,33 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
     let mut copies = Vec::new();
     for (i, a) in arrays.iter().enumerate() {
         let c = a.components;
+        let vals = &values[i];
         let file = data.copies.iter().find(|k| k.name == a.name);
-        let own = |t: usize, n: u32| -> Vec<f64> {
-            let mut x = values[i][n as usize * c..(n as usize + 1) * c].to_vec();
-            if let Some(k) = file {
-                let row = &k.values[t * k.components..(t + 1) * k.components];
-                if let Some(r) = row.chunks_exact(1 + c).find(|r| r[0] == f64::from(n)) {
-                    for (xj, d) in x.iter_mut().zip(&r[1..]) {
-                        *xj += d;
-                    }
+        // The deviation of `child`'s own value at its node `n` (into `dev`), and whether `n` is
+        // a hanging midpoint, where the merged value is the neighbours'.
+        let deviation = |child: usize, n: u32, dev: &mut [f64]| -> bool {
+            let t = parent[child];
+            let (from, count) = sources(t, n);
+            let from = &from[..count];
+            let w = 1.0 / from.len() as f64;
+            let row = file.map(|k| &k.values[t * k.components..(t + 1) * k.components]);
+            for (j, d) in dev.iter_mut().enumerate() {
+                *d = -vals[n as usize * c + j];
+            }
+            for &s in from {
+                let copy = row.and_then(|r| r.chunks_exact(1 + c).find(|r| r[0] == f64::from(s)));
+                for (j, d) in dev.iter_mut().enumerate() {
+                    *d += w * (vals[s as usize * c + j] + copy.map_or(0.0, |r| r[1 + j]));
                 }
             }
-            x
+            (n as usize) < mesh.points.len() && from.len() == 2
         };
-        let slot = 1 + c;
-        let row = MAX_NODES * slot;
-        let mut rows = vec![0.0; cells.len() * row];
+        let mut dev = vec![0.0; c];
         let (mut worst, mut any) = (0.0f64, false);
         for (child, nodes) in cells.iter().enumerate() {
-            let out = &mut rows[child * row..(child + 1) * row];
-            for (k, (&n, r)) in nodes.iter().zip(out.chunks_exact_mut(slot)).enumerate() {
-                r[0] = f64::from(n);
-                let Some(from) = sources[child].get(k) else {
-                    continue;
-                };
-                let w = 1.0 / from.len() as f64;
-                let mut mine = vec![0.0; c];
-                for &s in from {
-                    for (m, x) in mine.iter_mut().zip(own(parent[child], s)) {
-                        *m += w * x;
-                    }
-                }
-                let merged = &values[i][n as usize * c..(n as usize + 1) * c];
-                for (j, (m, x)) in mine.iter().zip(merged).enumerate() {
-                    r[1 + j] = m - x;
-                }
-                let big = r[1..].iter().fold(0.0f64, |m, d| m.max(d.abs()));
-                // At a hanging midpoint the merged value is the neighbours': the deviation is
-                // the jump of the field there (elsewhere it is the file's copies).
-                let hanging_mid = (n as usize) < mesh.points.len() && from.len() == 2;
+            for &n in &nodes[..6] {
+                let hanging_mid = deviation(child, n, &mut dev);
+                let big = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
                 if hanging_mid && big > HANGING_JUMP_RELATIVE * size[i] {
                     worst = worst.max(big);
                 }
@@ -560,15 +556,27 @@ fn quads_as_p2(data: &Dataset, hanging: &[Hanging]) -> Result<Dataset> {
                 kept_as_copies: kept,
             });
         }
-        if kept {
-            copies.push(DataArray {
-                name: a.name.clone(),
-                scalar: Scalar::Float64,
-                components: row,
-                component_names: Vec::new(),
-                values: rows,
-            });
+        if !kept {
+            continue;
         }
+        let slot = 1 + c;
+        let row = MAX_NODES * slot;
+        let mut rows = vec![0.0; cells.len() * row];
+        for (child, (nodes, out)) in cells.iter().zip(rows.chunks_exact_mut(row)).enumerate() {
+            for (&n, r) in nodes.iter().zip(out.chunks_exact_mut(slot)) {
+                r[0] = f64::from(n);
+                if n != NONE {
+                    deviation(child, n, &mut r[1..]);
+                }
+            }
+        }
+        copies.push(DataArray {
+            name: a.name.clone(),
+            scalar: Scalar::Float64,
+            components: row,
+            component_names: Vec::new(),
+            values: rows,
+        });
     }
     let mut point_data = arrays.clone();
     for (a, vals) in point_data.iter_mut().zip(values) {
