@@ -17,7 +17,7 @@ mod common;
 use std::path::Path;
 
 use common::cli::{estimate, root};
-use fosls::read::vtu::{DataArray, read_vtu};
+use fosls::read::vtu::{VtuFile, read_vtu};
 use fosls::write::{Placement, write_vtu};
 
 /// The Lamé stress of the linear field's strain (plane strain, E = 1, ν = 0.3), by hand.
@@ -136,6 +136,36 @@ fn p2(l: [f64; 3]) -> [f64; 6] {
     ]
 }
 
+/// `f` with its cell `t` replaced by `children` (of VTK type `vtk_type`): the first takes its
+/// place, the others are appended, each with `t`'s cell data.
+fn replace_cell(f: &mut VtuFile, t: usize, children: &[Vec<u32>], vtk_type: u8) {
+    let mut connectivity = Vec::new();
+    let mut offsets = vec![0];
+    for c in 0..f.cell_count() {
+        let nodes = if c == t {
+            children[0].clone()
+        } else {
+            f.cell(c).to_vec()
+        };
+        connectivity.extend(nodes);
+        offsets.push(connectivity.len());
+    }
+    for nodes in &children[1..] {
+        connectivity.extend(nodes);
+        offsets.push(connectivity.len());
+        f.types.push(vtk_type);
+    }
+    f.connectivity = connectivity;
+    f.offsets = offsets;
+    for a in &mut f.cell_data {
+        let nc = a.components;
+        let row = a.values[t * nc..(t + 1) * nc].to_vec();
+        for _ in 1..children.len() {
+            a.values.extend_from_slice(&row);
+        }
+    }
+}
+
 /// `src` with its 2D cell `t` (a P2 triangle) refined into four P2 triangles whose nodes carry
 /// the parent's polynomial: every point array evaluated there, cell arrays copied.
 fn refine_one(src: &Path, out: &Path, pick: impl Fn(&[[f64; 3]]) -> bool) -> usize {
@@ -203,40 +233,7 @@ fn refine_one(src: &Path, out: &Path, pick: impl Fn(&[[f64; 3]]) -> bool) -> usi
         }
         cells.push(nodes);
     }
-    // The parent becomes the first child; the others are appended with its cell data.
-    let mut connectivity = Vec::new();
-    let mut offsets = vec![0];
-    for c in 0..f.cell_count() {
-        let nodes = if c == t {
-            cells[0].clone()
-        } else {
-            f.cell(c).to_vec()
-        };
-        connectivity.extend(nodes);
-        offsets.push(connectivity.len());
-    }
-    for nodes in &cells[1..] {
-        connectivity.extend(nodes);
-        offsets.push(connectivity.len());
-        f.types.push(22);
-    }
-    f.connectivity = connectivity;
-    f.offsets = offsets;
-    f.cell_data = f
-        .cell_data
-        .iter()
-        .map(|a: &DataArray| {
-            let nc = a.components;
-            let mut values = a.values.clone();
-            for _ in 0..3 {
-                values.extend_from_slice(&a.values[t * nc..(t + 1) * nc]);
-            }
-            DataArray {
-                values,
-                ..a.clone()
-            }
-        })
-        .collect();
+    replace_cell(&mut f, t, &cells, 22);
     write_vtu(out, &f, Placement::AppendedRaw).unwrap();
     t
 }
@@ -422,31 +419,8 @@ fn refine_one_quad(src: &Path, out: &Path, pick: impl Fn(&[[f64; 3]]) -> bool) {
         [c, m[1], v[2], m[2]],
         [m[3], c, m[2], v[3]],
     ];
-    let mut connectivity = Vec::new();
-    let mut offsets = vec![0];
-    for cell in 0..f.cell_count() {
-        let nodes = if cell == t {
-            children[0].to_vec()
-        } else {
-            f.cell(cell).to_vec()
-        };
-        connectivity.extend(nodes);
-        offsets.push(connectivity.len());
-    }
-    for nodes in &children[1..] {
-        connectivity.extend(nodes);
-        offsets.push(connectivity.len());
-        f.types.push(9);
-    }
-    f.connectivity = connectivity;
-    f.offsets = offsets;
-    for a in &mut f.cell_data {
-        let nc = a.components;
-        let row = a.values[t * nc..(t + 1) * nc].to_vec();
-        for _ in 0..3 {
-            a.values.extend_from_slice(&row);
-        }
-    }
+    let children: Vec<Vec<u32>> = children.iter().map(|c| c.to_vec()).collect();
+    replace_cell(&mut f, t, &children, 9);
     write_vtu(out, &f, Placement::AppendedRaw).unwrap();
 }
 
